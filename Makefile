@@ -1,0 +1,36 @@
+# The two commands of the README's Quick start.  Both create .venv with the pinned
+# dependencies when it is missing (the stamp file tracks pyproject.toml and the lock).
+PY      ?= python3.11
+VENV    := .venv
+BIN     := $(VENV)/bin
+STAMP   := $(VENV)/.installed
+CORES   ?= 2
+
+.PHONY: figures test test-fast raw-data clean-results venv
+
+venv: $(STAMP)
+
+$(STAMP): pyproject.toml requirements.lock
+	@command -v $(PY) >/dev/null 2>&1 || { echo "error: $(PY) not found (roboball needs Python 3.11: drake 1.51.1 has no other wheels here)"; exit 1; }
+	test -x $(BIN)/python || $(PY) -m venv $(VENV)
+	$(BIN)/python -m pip install -q --upgrade pip
+	$(BIN)/python -m pip install -q -r requirements.lock
+	$(BIN)/python -m pip install -q --no-deps -e .
+	touch $(STAMP)
+
+# Regenerate every figure and table in paper_figures/ from raw_data/.
+figures: $(STAMP)
+	$(BIN)/snakemake --cores $(CORES) --rerun-triggers mtime input params code
+
+test: $(STAMP)
+	$(BIN)/python -m pytest -q
+
+test-fast: $(STAMP)
+	$(BIN)/python -m pytest -q -m "not slow"
+
+# Rebuild the virtual test bed's campaign (raw_data/) bit-for-bit from its seed.
+raw-data: $(STAMP)
+	$(BIN)/roboball testbed campaign --out raw_data
+
+clean-results:
+	rm -rf results .snakemake
