@@ -1,0 +1,1 @@
+"""Drake side of roboball: plant building, scenarios, force systems, simulation runs."""

@@ -1,0 +1,216 @@
+"""One plant-building path for every scenario.
+
+`build(spec)` generates the URDF variant for the scenario from the robot facts, adds it to a
+discrete MultibodyPlant, welds or grounds it as the experiment requires, and wires the
+generalised-force system (joint friction, injected shell, extra effects) into the plant's
+applied-generalised-force port.  Diagram, read top to bottom:
+
+    robot.yaml --make_urdf--> MultibodyPlant <--tau-- SymbolicVectorSystem(friction + shell)
+                                   |  state  ----------------^
+                                   +--> VectorLogSink (sampled recording)
+
+Discrete contact approximation: `lagged` (Drake's default), chosen on purpose.  The paper's
+eq. 11 specifies a Hunt-Crossley dissipation (s/m).  `lagged` and `similar` honour Hunt-Crossley
+dissipation for both point and hydroelastic contact; `sap` ignores it and uses a relaxation
+time instead (drake-notes.md: a hydroelastic ball on 16 deg rolls at 3.98 rad/s under sap vs
+9.03 under lagged/similar; rigid analytic 10.9).  `tests/test_contact_approximation.py`
+checks that the choice is in force and that the Hunt-Crossley value changes the result.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from pydrake.geometry import (AddRigidHydroelasticProperties, HalfSpace, ProximityProperties,
+                              SceneGraph)
+from pydrake.math import RigidTransform, RotationMatrix, RollPitchYaw
+from pydrake.multibody.plant import (AddMultibodyPlant, CoulombFriction, MultibodyPlantConfig)
+from pydrake.multibody.parsing import Parser
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import LogVectorOutput
+
+from ..config import RobotFacts, load_robot
+from ..physics import friction as friction_laws
+from ..physics import shell as shell_laws
+from ..urdf import ShellTags, make_urdf
+from .forces import InjectedShell, JointFriction, StateLayout, build_force_system
+
+KINDS = ("steer_stand", "drive_stand", "shell_rock", "ramp", "free")
+CONTACTS = ("point", "injected", "hydroelastic")
+APPROXIMATION = "lagged"
+
+# Per scenario: joints emitted as fixed, tree root, whether the root is welded (stand).
+_LAYOUT = {
+    "steer_stand": dict(fixed=("drive",), root="pitch_center", welded=True),
+    "drive_stand": dict(fixed=("steer",), root="pipe_assembly", welded=True),
+    "shell_rock": dict(fixed=("steer", "drive"), root="pitch_center", welded=False),
+    "ramp": dict(fixed=(), root="pitch_center", welded=False),
+    "free": dict(fixed=(), root="pitch_center", welded=False),
+}
+
+
+@dataclass
+class ShellParams:
+    """Shell terms at one pressure.  zeta/omega_n drive the injected model (eq. 7-8) and the
+    hydroelastic dissipation (eq. 11); hydro_modulus defaults to eq. 10."""
+
+    zeta: float | None = None
+    omega_n: float | None = None
+    hydro_modulus: float | None = None          # Pa; None -> eq. 10 at the pressure
+    hydro_dissipation: float | None = None      # s/m; None -> eq. 11 (C_inject)
+    modulus_scale: float = 1.0                  # sensitivity sweep factors (section III-D)
+    dissipation_scale: float = 1.0
+
+
+@dataclass
+class SimSpec:
+    kind: str
+    contact: str = "point"
+    friction: dict = field(default_factory=lambda: {"steer": "none", "drive": "none"})
+    friction_params: dict = field(default_factory=dict)   # joint -> params (default Table I)
+    pressure_kpa: float | None = None
+    shell: ShellParams = field(default_factory=ShellParams)
+    dt: float = 1e-3
+    ramp_angle_deg: float | None = None
+    extra_terms: list = field(default_factory=list)       # additional ForceTerms (diagnosis)
+    robot: RobotFacts | None = None
+
+    def resolved_robot(self) -> RobotFacts:
+        return self.robot if self.robot is not None else load_robot()
+
+
+@dataclass
+class Built:
+    diagram: object
+    plant: object
+    scene_graph: object
+    layout: StateLayout
+    spec: SimSpec
+    robot: RobotFacts
+    injected: InjectedShell | None
+    shell_tags: ShellTags
+    logger: object = None
+    force_system: object = None
+
+
+def shell_coefficients(robot: RobotFacts, spec: SimSpec) -> tuple[float, float]:
+    """(K_inject, C_inject) from the spec's zeta and omega_n (eq. 7-8)."""
+    sp = spec.shell
+    if sp.zeta is None or sp.omega_n is None:
+        raise ValueError(f"contact '{spec.contact}' needs the shell's zeta and omega_n at the pressure "
+                         "(pass --zeta/--omega-n or a shell regression table)")
+    k = shell_laws.k_inject(sp.omega_n, robot.M_eq, robot.K_eq)
+    c = shell_laws.c_inject(sp.zeta, sp.omega_n, robot.M_eq)
+    return k, c
+
+
+def shell_tags(robot: RobotFacts, spec: SimSpec) -> ShellTags:
+    """Contact properties of the bedliner for this spec (eq. 10-11 for hydroelastic)."""
+    mu = float(robot.data["shell"]["ground_friction"])
+    hint = float(robot.data["shell"]["hydroelastic_resolution_hint_m"])
+    defaults = robot.data["hydroelastic_defaults"]
+    modulus, dissipation = float(defaults["modulus_pa"]), float(defaults["hunt_crossley_s_m"])
+    if spec.contact == "hydroelastic":
+        sp = spec.shell
+        if sp.hydro_modulus is not None:
+            modulus = sp.hydro_modulus
+        elif spec.pressure_kpa is not None:
+            modulus = shell_laws.hydro_modulus(spec.pressure_kpa * 1e3, robot.weight_n, robot.radius)
+        if sp.hydro_dissipation is not None:
+            dissipation = sp.hydro_dissipation
+        else:
+            _, c = shell_coefficients(robot, spec)
+            dissipation = c
+        modulus *= sp.modulus_scale
+        dissipation *= sp.dissipation_scale
+    return ShellTags(hydro_modulus=modulus, hunt_crossley=dissipation, mu=mu, resolution_hint=hint)
+
+
+def _ground(plant, robot: RobotFacts, kind: str, ramp_angle_deg: float):
+    """Rigid ground: a half-space (tilted for the ramp so that downhill is +x)."""
+    mu = float(robot.data["shell"]["ground_friction"])
+    props = ProximityProperties()
+    props.AddProperty("material", "coulomb_friction", CoulombFriction(mu, mu))
+    AddRigidHydroelasticProperties(props)
+    alpha = math.radians(ramp_angle_deg) if kind == "ramp" else 0.0
+    # HalfSpace's outward normal is +z of its frame; pitch it by +alpha about y so that the
+    # surface descends towards +x.
+    X_WG = RigidTransform(RotationMatrix.MakeYRotation(alpha), [0.0, 0.0, 0.0])
+    plant.RegisterCollisionGeometry(plant.world_body(), X_WG, HalfSpace(), "ground", props)
+    return alpha
+
+
+def _layout(plant) -> StateLayout:
+    lay = StateLayout(nq=plant.num_positions(), nv=plant.num_velocities())
+    for name in ("steer", "drive"):
+        if plant.HasJointNamed(name):
+            j = plant.GetJointByName(name)
+            if j.num_velocities() == 1:
+                lay.joint_q[name] = j.position_start()
+                lay.joint_v[name] = j.velocity_start()
+    body = plant.GetBodyByName("pitch_center")
+    if body.is_floating_base_body():
+        lay.base_q = body.floating_positions_start()
+        lay.base_v = body.floating_velocities_start_in_v()
+    return lay
+
+
+def build(spec: SimSpec, sample_period: float | None = None, meshcat=None) -> Built:
+    """Build the diagram for `spec`.  `sample_period` adds a state logger at that period."""
+    if spec.kind not in KINDS:
+        raise ValueError(f"unknown kind '{spec.kind}' (choose from {', '.join(KINDS)})")
+    if spec.contact not in CONTACTS:
+        raise ValueError(f"unknown contact model '{spec.contact}' (choose from {', '.join(CONTACTS)})")
+    robot = spec.resolved_robot()
+    lay = _LAYOUT[spec.kind]
+    tags = shell_tags(robot, spec)
+    urdf = make_urdf(robot, fixed_joints=lay["fixed"], root=lay["root"], shell=tags)
+
+    builder = DiagramBuilder()
+    cfg = MultibodyPlantConfig(
+        time_step=spec.dt,
+        discrete_contact_approximation=APPROXIMATION,
+        contact_model="hydroelastic_with_fallback" if spec.contact == "hydroelastic" else "point",
+    )
+    plant, scene_graph = AddMultibodyPlant(cfg, builder)
+    Parser(plant).AddModelsFromString(urdf, "urdf")
+    if lay["welded"]:
+        plant.WeldFrames(plant.world_frame(), plant.GetFrameByName(lay["root"]))
+        alpha = 0.0
+    else:
+        ramp = spec.ramp_angle_deg if spec.ramp_angle_deg is not None else robot.ramp_angle_deg
+        alpha = _ground(plant, robot, spec.kind, ramp)
+    plant.mutable_gravity_field().set_gravity_vector([0.0, 0.0, -robot.g])
+    plant.Finalize()
+    layout = _layout(plant)
+
+    terms = []
+    for joint in ("steer", "drive"):
+        law = spec.friction.get(joint, "none")
+        if law not in friction_laws.LAWS:
+            raise ValueError(f"unknown friction law '{law}' (choose from {', '.join(friction_laws.LAWS)})")
+        params = spec.friction_params.get(joint) or friction_laws.table1_params(robot, law, joint)
+        terms.append(JointFriction(joint, law, params))
+    injected = None
+    if spec.contact == "injected" and layout.base_v is not None:
+        k, c = shell_coefficients(robot, spec)
+        injected = InjectedShell(k, c)
+        terms.append(injected)
+    terms.extend(spec.extra_terms)
+    force_system = build_force_system(layout, terms)
+    if force_system is not None:
+        builder.AddSystem(force_system)
+        builder.Connect(plant.get_state_output_port(), force_system.get_input_port(0))
+        builder.Connect(force_system.get_output_port(0), plant.get_applied_generalized_force_input_port())
+
+    logger = None
+    if sample_period is not None:
+        logger = LogVectorOutput(plant.get_state_output_port(), builder, sample_period)
+    if meshcat is not None:
+        from pydrake.geometry import MeshcatVisualizer
+        MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat)
+    diagram = builder.Build()
+    built = Built(diagram, plant, scene_graph, layout, spec, robot, injected, tags, logger, force_system)
+    built.ramp_alpha = alpha
+    return built

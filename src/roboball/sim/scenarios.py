@@ -1,0 +1,138 @@
+"""Scenario runs: set the released initial state, simulate, and return a recording.
+
+Scenarios (one builder each, all through `roboball.sim.plant.build`):
+
+* `steer_stand`: stand holds the pitch centre and the pipe (outer rolling locked); the pendulum
+  swings about the steer joint.  Main coordinate theta = steer_angle.
+* `drive_stand`: stand holds the pipe; pitch centre + pendulum (steer locked) swing about the
+  drive joint.  Main coordinate: drive_angle.
+* `shell_rock`: steering (and drive) locked by the clamp; the robot rolls on flat ground in the
+  steer plane.  Main coordinate phi = pipe_angle, the floating base's roll.
+* `ramp`: 16 deg incline descending towards +x, pendulum free on both joints, released from rest
+  at the given initial pipe angle.  Main signal: drive_rate.
+* `free`: the full robot on flat ground, both joints free.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+from pydrake.math import RigidTransform, RollPitchYaw
+from pydrake.systems.analysis import Simulator
+
+from ..errors import SimulationError
+from .forces import Kin
+from .plant import Built, SimSpec, build
+
+SIGNALS = {
+    "steer_stand": ["steer_angle_rad", "steer_rate_rad_s"],
+    "drive_stand": ["drive_angle_rad"],
+    "shell_rock": ["pipe_angle_rad", "pipe_rate_rad_s"],
+    "ramp": ["drive_rate_rad_s", "pipe_angle_rad", "steer_angle_rad", "drive_angle_rad",
+             "pipe_rate_rad_s", "steer_rate_rad_s"],
+    "free": ["drive_rate_rad_s", "pipe_angle_rad", "steer_angle_rad", "drive_angle_rad",
+             "pipe_rate_rad_s", "steer_rate_rad_s"],
+}
+MAIN_SIGNAL = {"steer_stand": "steer_angle_rad", "drive_stand": "drive_angle_rad",
+               "shell_rock": "pipe_angle_rad", "ramp": "drive_rate_rad_s", "free": "pipe_angle_rad"}
+
+
+def set_release(built: Built, context, release: float, steer0: float = 0.0) -> None:
+    """Put the plant at rest at the experiment's release state."""
+    plant = built.plant
+    pctx = plant.GetMyMutableContextFromRoot(context)
+    kind = built.spec.kind
+    if kind == "steer_stand":
+        plant.GetJointByName("steer").set_angle(pctx, release)
+    elif kind == "drive_stand":
+        plant.GetJointByName("drive").set_angle(pctx, release)
+    else:
+        r = built.robot.radius
+        alpha = getattr(built, "ramp_alpha", 0.0)
+        normal = np.array([math.sin(alpha), 0.0, math.cos(alpha)])
+        X = RigidTransform(RollPitchYaw(release, 0.0, 0.0), r * normal)
+        plant.SetFreeBodyPose(pctx, plant.GetBodyByName("pitch_center"), X)
+        if plant.HasJointNamed("steer") and built.layout.joint_q.get("steer") is not None:
+            plant.GetJointByName("steer").set_angle(pctx, steer0)
+    plant.SetVelocities(pctx, np.zeros(plant.num_velocities()))
+
+
+def signals_from_states(built: Built, x: np.ndarray) -> dict:
+    """Recording signals from logged plant states x (n_x by N), per roboball.sim.forces.Kin."""
+    lay = built.layout
+    q, v = x[:lay.nq], x[lay.nq:]
+    out = {}
+    kin = Kin(lay, q, v, None)
+    if "steer" in lay.joint_q:
+        out["steer_angle_rad"] = q[lay.joint_q["steer"]]
+        out["steer_rate_rad_s"] = v[lay.joint_v["steer"]]
+    if "drive" in lay.joint_q:
+        out["drive_angle_rad"] = q[lay.joint_q["drive"]]
+    if lay.base_q is not None:
+        out["pipe_angle_rad"] = kin.pipe_angle()
+        out["pipe_rate_rad_s"] = kin.pipe_rate()
+        out["drive_rate_rad_s"] = kin.drive_rate()
+    return out
+
+
+def _check_state(built: Built, x: np.ndarray, t: float) -> None:
+    spec = built.spec
+    where = (f"scenario {spec.kind}, contact {spec.contact}, friction {spec.friction}, "
+             f"pressure {spec.pressure_kpa} kPa, dt {spec.dt} s, t = {t:.3f} s")
+    if not np.all(np.isfinite(x)):
+        raise SimulationError(f"simulation produced NaN/inf ({where})")
+    lay = built.layout
+    v = x[lay.nq:]
+    if np.max(np.abs(v)) > 1e3:
+        raise SimulationError(f"simulation blew up: |velocity| {np.max(np.abs(v)):.3g} > 1e3 ({where})")
+    if lay.base_q is not None:
+        p = x[lay.base_q + 4: lay.base_q + 7]
+        alpha = getattr(built, "ramp_alpha", 0.0)
+        height = p[0] * math.sin(alpha) + p[2] * math.cos(alpha)
+        if height < 0.5 * built.robot.radius:
+            raise SimulationError(f"shell penetrated the ground by {built.robot.radius - height:.3f} m ({where})")
+
+
+def simulate(spec: SimSpec, release: float, duration: float, sample_rate_hz: float = 100.0,
+             steer0: float = 0.0, chunk_s: float = 0.5, built: Built | None = None) -> pd.DataFrame:
+    """Run `spec` from rest at `release` for `duration` s; return a recording DataFrame.
+
+    The state is checked between chunks of `chunk_s` for NaN, blow-up and deep penetration; a
+    failure raises SimulationError naming the scenario and parameters.
+    """
+    if built is None:
+        built = build(spec, sample_period=1.0 / sample_rate_hz)
+    sim = Simulator(built.diagram)
+    ctx = sim.get_mutable_context()
+    set_release(built, ctx, release, steer0)
+    sim.Initialize()
+    pctx = built.plant.GetMyContextFromRoot(ctx)
+    t = 0.0
+    try:
+        while t < duration - 1e-12:
+            t = min(duration, t + chunk_s)
+            sim.AdvanceTo(t)
+            _check_state(built, built.plant.GetPositionsAndVelocities(pctx), t)
+    except RuntimeError as exc:
+        raise SimulationError(f"Drake failed in scenario {spec.kind} ({spec.contact}, "
+                              f"friction {spec.friction}) at t = {ctx.get_time():.3f} s: "
+                              f"{str(exc).splitlines()[0]}")
+    log = built.logger.FindLog(ctx)
+    times = log.sample_times()
+    sig = signals_from_states(built, log.data())
+    cols = {"time_s": times}
+    for name in SIGNALS[spec.kind]:
+        cols[name] = np.asarray(sig[name], dtype=float)
+    return pd.DataFrame(cols)
+
+
+def energy(built: Built, x: np.ndarray) -> np.ndarray:
+    """Total mechanical energy (kinetic + potential) at each logged state column."""
+    plant = built.plant
+    ctx = plant.CreateDefaultContext()
+    out = np.empty(x.shape[1])
+    for k in range(x.shape[1]):
+        plant.SetPositionsAndVelocities(ctx, x[:, k])
+        out[k] = plant.CalcKineticEnergy(ctx) + plant.CalcPotentialEnergy(ctx)
+    return out
