@@ -74,6 +74,7 @@ class SimSpec:
     dt: float = 1e-3
     ramp_angle_deg: float | None = None
     extra_terms: list = field(default_factory=list)       # additional ForceTerms (diagnosis)
+    lock_joints: tuple = ()                               # extra joints emitted as fixed
     robot: RobotFacts | None = None
 
     def resolved_robot(self) -> RobotFacts:
@@ -165,7 +166,8 @@ def build(spec: SimSpec, sample_period: float | None = None, meshcat=None) -> Bu
     robot = spec.resolved_robot()
     lay = _LAYOUT[spec.kind]
     tags = shell_tags(robot, spec)
-    urdf = make_urdf(robot, fixed_joints=lay["fixed"], root=lay["root"], shell=tags)
+    fixed = tuple(sorted(set(lay["fixed"]) | set(spec.lock_joints)))
+    urdf = make_urdf(robot, fixed_joints=fixed, root=lay["root"], shell=tags)
 
     builder = DiagramBuilder()
     cfg = MultibodyPlantConfig(

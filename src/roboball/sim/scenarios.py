@@ -123,7 +123,8 @@ def simulate(spec: SimSpec, release: float, duration: float, sample_rate_hz: flo
     sig = signals_from_states(built, log.data())
     cols = {"time_s": times}
     for name in SIGNALS[spec.kind]:
-        cols[name] = np.asarray(sig[name], dtype=float)
+        # A joint locked for this run stays at zero.
+        cols[name] = np.asarray(sig.get(name, np.zeros_like(times)), dtype=float)
     return pd.DataFrame(cols)
 
 

@@ -1,0 +1,155 @@
+"""`roboball` command line.
+
+Every subcommand turns user errors (RoboballError) into one line on stderr and a non-zero
+exit code; a traceback means a bug in roboball, not in the user's input.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from .errors import RoboballError
+
+FRICTION_CHOICES = ("none", "viscous", "coulomb_viscous", "majd")
+
+
+def _positive(name):
+    def conv(text):
+        try:
+            x = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} must be a number, got '{text}'")
+        if not x > 0:
+            raise argparse.ArgumentTypeError(f"{name} must be positive, got {text}")
+        return x
+    return conv
+
+
+def _number(name):
+    def conv(text):
+        try:
+            return float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} must be a number, got '{text}'")
+    return conv
+
+
+def cmd_simulate(args) -> int:
+    from .physics import shell as shell_laws
+    from .recording import write_recording
+    from .sim.plant import ShellParams, SimSpec
+    from .sim.scenarios import simulate
+
+    if args.dt > 0.01:
+        raise RoboballError(f"--dt {args.dt}: time step above 10 ms is not allowed (contact and friction become inaccurate)")
+    if args.kind in ("shell_rock", "ramp") and args.pressure_kpa is None and args.contact != "point":
+        raise RoboballError(f"--pressure-kpa is required for {args.kind} with contact '{args.contact}'")
+    if args.pressure_kpa is not None and not (0 < args.pressure_kpa <= 500):
+        raise RoboballError(f"--pressure-kpa {args.pressure_kpa}: must be in (0, 500] kPa gauge")
+    shell = ShellParams(zeta=args.zeta, omega_n=args.omega_n, hydro_modulus=args.hydro_modulus,
+                        hydro_dissipation=args.hydro_dissipation)
+    if args.contact in ("injected", "hydroelastic") and (args.zeta is None or args.omega_n is None) \
+            and not (args.contact == "hydroelastic" and args.hydro_dissipation is not None):
+        raise RoboballError(f"contact '{args.contact}' needs the shell's --zeta and --omega-n at the pressure "
+                            "(from the pipeline's shell regression, results/identify/shell_regression.csv)")
+    friction = {"steer": args.friction_steer or args.friction, "drive": args.friction_drive or args.friction}
+    spec = SimSpec(kind=args.kind, contact=args.contact, friction=friction, pressure_kpa=args.pressure_kpa,
+                   shell=shell, dt=args.dt)
+    try:
+        df = simulate(spec, args.release, args.duration, sample_rate_hz=args.sample_rate_hz)
+    except ValueError as exc:
+        raise RoboballError(str(exc))
+    meta = {"kind": args.kind, "pressure_kpa": args.pressure_kpa, "source": "simulation",
+            "simulation": {"contact": args.contact, "friction": friction, "dt_s": args.dt,
+                           "release": args.release, "zeta": args.zeta, "omega_n_rad_s": args.omega_n}}
+    if args.kind == "ramp":
+        from .config import load_robot
+        meta["ramp_angle_deg"] = load_robot().ramp_angle_deg
+    write_recording(args.out, df, meta)
+    print(f"wrote {args.out} ({len(df)} samples, {args.duration:g} s of {args.kind}, contact {args.contact})")
+    return 0
+
+
+def cmd_urdf(args) -> int:
+    from .atomic import write_text_atomic
+    from .config import load_robot
+    from .urdf import make_urdf
+
+    text = make_urdf(load_robot(args.robot))
+    if args.out:
+        write_text_atomic(args.out, text)
+    else:
+        sys.stdout.write(text)
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="roboball", description=__doc__.splitlines()[0])
+    sub = p.add_subparsers(dest="command", required=True)
+
+    s = sub.add_parser("simulate", help="simulate one experiment in Drake and write a recording")
+    s.add_argument("kind", choices=("steer_stand", "drive_stand", "shell_rock", "ramp", "free"))
+    s.add_argument("--contact", choices=("point", "injected", "hydroelastic"), default="point")
+    s.add_argument("--friction", choices=FRICTION_CHOICES, default="none",
+                   help="friction law on both joints, Table I values (default: none)")
+    s.add_argument("--friction-steer", choices=FRICTION_CHOICES, help="override the steer joint's law")
+    s.add_argument("--friction-drive", choices=FRICTION_CHOICES, help="override the drive joint's law")
+    s.add_argument("--pressure-kpa", type=_number("--pressure-kpa"))
+    s.add_argument("--zeta", type=_positive("--zeta"), help="shell damping ratio at the pressure")
+    s.add_argument("--omega-n", type=_positive("--omega-n"), help="shell natural frequency (rad/s)")
+    s.add_argument("--hydro-modulus", type=_positive("--hydro-modulus"), help="override eq. 10 (Pa)")
+    s.add_argument("--hydro-dissipation", type=_positive("--hydro-dissipation"), help="override eq. 11 (s/m)")
+    s.add_argument("--release", type=_number("--release"), default=0.05,
+                   help="initial angle of the main coordinate (rad), released from rest")
+    s.add_argument("--duration", type=_positive("--duration"), default=10.0)
+    s.add_argument("--dt", type=_positive("--dt"), default=1e-3)
+    s.add_argument("--sample-rate-hz", type=_positive("--sample-rate-hz"), default=100.0)
+    s.add_argument("--out", required=True, type=Path)
+    s.set_defaults(func=cmd_simulate)
+
+    u = sub.add_parser("urdf", help="print (or write) the URDF generated from configs/robot.yaml")
+    u.add_argument("--robot", default=None, help="robot facts YAML (default configs/robot.yaml)")
+    u.add_argument("--out", type=Path)
+    u.set_defaults(func=cmd_urdf)
+
+    for register in _EXTRA_COMMANDS:
+        register(sub)
+    return p
+
+
+_EXTRA_COMMANDS = []
+
+
+def register_command(fn):
+    """Other modules add subcommands through this hook (imported in main)."""
+    _EXTRA_COMMANDS.append(fn)
+    return fn
+
+
+def _load_plugins():
+    import importlib
+    for mod in ("roboball.testbed.cli", "roboball.diagnose.cli", "roboball.pipeline_cli"):
+        try:
+            importlib.import_module(mod)
+        except ModuleNotFoundError as exc:
+            if not (exc.name and mod.startswith(exc.name)):
+                raise
+
+
+def main(argv=None) -> int:
+    _load_plugins()
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except RoboballError as exc:
+        print(f"roboball: error: {exc}", file=sys.stderr)
+        return exc.exit_code
+    except KeyboardInterrupt:
+        print("roboball: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

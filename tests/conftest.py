@@ -1,0 +1,32 @@
+import os
+
+import numpy as np
+import pytest
+
+os.environ.setdefault("MPLBACKEND", "Agg")
+
+
+def fit_damped(t, y):
+    """Independent damped-sinusoid fit used to check Drake runs (not the project's extractor)."""
+    from scipy.optimize import curve_fit
+
+    t = np.asarray(t, float)
+    y = np.asarray(y, float)
+    rest0 = np.mean(y[len(y) // 2:])
+    yc = y - rest0
+    zc = np.where(np.diff(np.sign(yc)) != 0)[0]
+    w0 = np.pi / np.mean(np.diff(t[zc])) if len(zc) > 2 else 2.0
+
+    def f(t, A, z, w, ph, c):
+        return c + A * np.exp(-z * w * t) * np.cos(w * np.sqrt(1 - z * z) * t + ph)
+
+    p, _ = curve_fit(f, t, y, p0=[y[0] - rest0, 0.01, w0, 0.0, rest0], maxfev=20000)
+    return {"amplitude": p[0], "zeta": p[1], "omega_n": p[2], "rest": p[4],
+            "rmse": float(np.sqrt(np.mean((f(t, *p) - y) ** 2)))}
+
+
+@pytest.fixture(scope="session")
+def robot():
+    from roboball.config import load_robot
+
+    return load_robot()
