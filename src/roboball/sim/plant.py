@@ -75,6 +75,7 @@ class SimSpec:
     ramp_angle_deg: float | None = None
     extra_terms: list = field(default_factory=list)       # additional ForceTerms (diagnosis)
     lock_joints: tuple = ()                               # extra joints emitted as fixed
+    approximation: str = APPROXIMATION                    # discrete contact approximation
     robot: RobotFacts | None = None
 
     def resolved_robot(self) -> RobotFacts:
@@ -172,7 +173,7 @@ def build(spec: SimSpec, sample_period: float | None = None, meshcat=None) -> Bu
     builder = DiagramBuilder()
     cfg = MultibodyPlantConfig(
         time_step=spec.dt,
-        discrete_contact_approximation=APPROXIMATION,
+        discrete_contact_approximation=spec.approximation,
         contact_model="hydroelastic_with_fallback" if spec.contact == "hydroelastic" else "point",
     )
     plant, scene_graph = AddMultibodyPlant(cfg, builder)
