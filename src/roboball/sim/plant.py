@@ -28,7 +28,7 @@ from pydrake.math import RigidTransform, RotationMatrix, RollPitchYaw
 from pydrake.multibody.plant import (AddMultibodyPlant, CoulombFriction, MultibodyPlantConfig)
 from pydrake.multibody.parsing import Parser
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import LogVectorOutput
+from pydrake.systems.primitives import Adder, LogVectorOutput
 
 from ..config import RobotFacts, load_robot
 from ..physics import friction as friction_laws
@@ -76,6 +76,9 @@ class SimSpec:
     extra_terms: list = field(default_factory=list)       # additional ForceTerms (diagnosis)
     lock_joints: tuple = ()                               # extra joints emitted as fixed
     approximation: str = APPROXIMATION                    # discrete contact approximation
+    extra_systems: list = field(default_factory=list)     # fn(layout, dt) -> System: state in, tau out
+    resolution_hint: float | None = None                  # override the hydroelastic mesh hint (m)
+    ramp_length_m: float | None = None                    # finite ramp ending on a flat floor
     robot: RobotFacts | None = None
 
     def resolved_robot(self) -> RobotFacts:
@@ -110,7 +113,7 @@ def shell_coefficients(robot: RobotFacts, spec: SimSpec) -> tuple[float, float]:
 def shell_tags(robot: RobotFacts, spec: SimSpec) -> ShellTags:
     """Contact properties of the bedliner for this spec (eq. 10-11 for hydroelastic)."""
     mu = float(robot.data["shell"]["ground_friction"])
-    hint = float(robot.data["shell"]["hydroelastic_resolution_hint_m"])
+    hint = spec.resolution_hint or float(robot.data["shell"]["hydroelastic_resolution_hint_m"])
     defaults = robot.data["hydroelastic_defaults"]
     modulus, dissipation = float(defaults["modulus_pa"]), float(defaults["hunt_crossley_s_m"])
     if spec.contact == "hydroelastic":
@@ -129,8 +132,10 @@ def shell_tags(robot: RobotFacts, spec: SimSpec) -> ShellTags:
     return ShellTags(hydro_modulus=modulus, hunt_crossley=dissipation, mu=mu, resolution_hint=hint)
 
 
-def _ground(plant, robot: RobotFacts, kind: str, ramp_angle_deg: float):
-    """Rigid ground: a half-space (tilted for the ramp so that downhill is +x)."""
+def _ground(plant, robot: RobotFacts, kind: str, ramp_angle_deg: float, ramp_length_m=None):
+    """Rigid ground: a half-space (tilted for the ramp so that downhill is +x).  A finite ramp
+    of length L (along the slope, from the robot's start) ends on a flat floor L sin(alpha)
+    below the start: a second half-space meeting the ramp in a concave corner."""
     mu = float(robot.data["shell"]["ground_friction"])
     props = ProximityProperties()
     props.AddProperty("material", "coulomb_friction", CoulombFriction(mu, mu))
@@ -140,6 +145,9 @@ def _ground(plant, robot: RobotFacts, kind: str, ramp_angle_deg: float):
     # surface descends towards +x.
     X_WG = RigidTransform(RotationMatrix.MakeYRotation(alpha), [0.0, 0.0, 0.0])
     plant.RegisterCollisionGeometry(plant.world_body(), X_WG, HalfSpace(), "ground", props)
+    if kind == "ramp" and ramp_length_m is not None:
+        X_WF = RigidTransform([0.0, 0.0, -ramp_length_m * math.sin(alpha)])
+        plant.RegisterCollisionGeometry(plant.world_body(), X_WF, HalfSpace(), "floor", props)
     return alpha
 
 
@@ -183,7 +191,7 @@ def build(spec: SimSpec, sample_period: float | None = None, meshcat=None) -> Bu
         alpha = 0.0
     else:
         ramp = spec.ramp_angle_deg if spec.ramp_angle_deg is not None else robot.ramp_angle_deg
-        alpha = _ground(plant, robot, spec.kind, ramp)
+        alpha = _ground(plant, robot, spec.kind, ramp, spec.ramp_length_m)
     plant.mutable_gravity_field().set_gravity_vector([0.0, 0.0, -robot.g])
     plant.Finalize()
     layout = _layout(plant)
@@ -202,10 +210,18 @@ def build(spec: SimSpec, sample_period: float | None = None, meshcat=None) -> Bu
         terms.append(injected)
     terms.extend(spec.extra_terms)
     force_system = build_force_system(layout, terms)
-    if force_system is not None:
-        builder.AddSystem(force_system)
-        builder.Connect(plant.get_state_output_port(), force_system.get_input_port(0))
-        builder.Connect(force_system.get_output_port(0), plant.get_applied_generalized_force_input_port())
+    sources = [force_system] if force_system is not None else []
+    sources += [make(layout, spec.dt) for make in spec.extra_systems]
+    for system in sources:
+        builder.AddSystem(system)
+        builder.Connect(plant.get_state_output_port(), system.get_input_port(0))
+    if len(sources) == 1:
+        builder.Connect(sources[0].get_output_port(0), plant.get_applied_generalized_force_input_port())
+    elif len(sources) > 1:
+        adder = builder.AddSystem(Adder(len(sources), layout.nv))
+        for k, system in enumerate(sources):
+            builder.Connect(system.get_output_port(0), adder.get_input_port(k))
+        builder.Connect(adder.get_output_port(0), plant.get_applied_generalized_force_input_port())
 
     logger = None
     if sample_period is not None:

@@ -95,11 +95,13 @@ def _check_state(built: Built, x: np.ndarray, t: float) -> None:
 
 
 def simulate(spec: SimSpec, release: float, duration: float, sample_rate_hz: float = 100.0,
-             steer0: float = 0.0, chunk_s: float = 0.5, built: Built | None = None) -> pd.DataFrame:
+             steer0: float = 0.0, chunk_s: float = 0.5, built: Built | None = None,
+             return_states: bool = False):
     """Run `spec` from rest at `release` for `duration` s; return a recording DataFrame.
 
     The state is checked between chunks of `chunk_s` for NaN, blow-up and deep penetration; a
-    failure raises SimulationError naming the scenario and parameters.
+    failure raises SimulationError naming the scenario and parameters.  With `return_states`
+    the logged plant states (n_x by N) come back too: (df, states).
     """
     if built is None:
         built = build(spec, sample_period=1.0 / sample_rate_hz)
@@ -125,7 +127,8 @@ def simulate(spec: SimSpec, release: float, duration: float, sample_rate_hz: flo
     for name in SIGNALS[spec.kind]:
         # A joint locked for this run stays at zero.
         cols[name] = np.asarray(sig.get(name, np.zeros_like(times)), dtype=float)
-    return pd.DataFrame(cols)
+    df = pd.DataFrame(cols)
+    return (df, log.data()) if return_states else df
 
 
 def energy(built: Built, x: np.ndarray) -> np.ndarray:
