@@ -30,7 +30,7 @@ test-fast: $(STAMP)
 
 # Rebuild the virtual test bed's campaign (raw_data/) bit-for-bit from its seed.
 raw-data: $(STAMP)
-	$(BIN)/roboball testbed campaign --out raw_data
+	$(BIN)/roboball-testbed campaign --out raw_data
 
 clean-results:
 	rm -rf results .snakemake

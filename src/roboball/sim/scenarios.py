@@ -29,10 +29,10 @@ SIGNALS = {
     "steer_stand": ["steer_angle_rad", "steer_rate_rad_s"],
     "drive_stand": ["drive_angle_rad"],
     "shell_rock": ["pipe_angle_rad", "pipe_rate_rad_s"],
-    "ramp": ["drive_rate_rad_s", "pipe_angle_rad", "steer_angle_rad", "drive_angle_rad",
-             "pipe_rate_rad_s", "steer_rate_rad_s"],
-    "free": ["drive_rate_rad_s", "pipe_angle_rad", "steer_angle_rad", "drive_angle_rad",
-             "pipe_rate_rad_s", "steer_rate_rad_s"],
+    # The drive joint is continuous: on the ramp its angle winds up without bound, so rolling
+    # runs record its rate (drive_rate) rather than the angle.
+    "ramp": ["drive_rate_rad_s", "pipe_angle_rad", "steer_angle_rad", "pipe_rate_rad_s", "steer_rate_rad_s"],
+    "free": ["drive_rate_rad_s", "pipe_angle_rad", "steer_angle_rad", "pipe_rate_rad_s", "steer_rate_rad_s"],
 }
 MAIN_SIGNAL = {"steer_stand": "steer_angle_rad", "drive_stand": "drive_angle_rad",
                "shell_rock": "pipe_angle_rad", "ramp": "drive_rate_rad_s", "free": "pipe_angle_rad"}

@@ -1,0 +1,133 @@
+"""The experimental campaign, written to raw_data/ in the recording format with a MANIFEST.
+
+`generate(out_dir)` regenerates every file bit-for-bit from the seed in truth.yaml: each
+file draws from its own random stream (SeedSequence keyed by the file's name), and Drake
+runs are deterministic, so the manifest's sha256 sums are reproducible.
+"""
+from __future__ import annotations
+
+import hashlib
+import math
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ..atomic import write_csv_atomic
+from ..recording import write_recording
+from .physics import load_truth, true_robot
+from .run import ALL_EXTRAS, ramp_exit_time, run_free
+from .sensors import hand_phase, measure
+
+SIGNAL = {"steer_stand": "steer_angle_rad", "drive_stand": "drive_angle_rad", "shell_rock": "pipe_angle_rad"}
+
+
+def _rng(seed: int, name: str) -> np.random.Generator:
+    key = int.from_bytes(hashlib.sha256(name.encode()).digest()[:8], "little")
+    return np.random.default_rng(np.random.SeedSequence([seed, key]))
+
+
+def jobs(truth: dict) -> list[dict]:
+    """Every file of the campaign: name, kind, pressure, run."""
+    c = truth["campaign"]
+    out = []
+    for kind in ("steer_stand", "drive_stand"):
+        for r in range(1, c[kind]["files"] + 1):
+            out.append(dict(file=f"{kind}/{kind}_r{r}.csv", kind=kind, pressure_kpa=None, run=r))
+    for p in c["pressures_kpa"]:
+        for r in range(1, c["shell_rock"]["runs"] + 1):
+            out.append(dict(file=f"shell_rock/shell_rock_{p:.1f}kpa_r{r}.csv", kind="shell_rock", pressure_kpa=p, run=r))
+    for p in c["pressures_kpa"]:
+        for r in range(1, c["ramp"]["runs"] + 1):
+            out.append(dict(file=f"ramp/ramp_{p:.1f}kpa_r{r}.csv", kind="ramp", pressure_kpa=p, run=r))
+    return out
+
+
+def _rest_angle(kind: str, robot) -> float:
+    if kind == "steer_stand":
+        p = robot.links["pendulum"]
+        return -math.atan2(p.com_m[1], -p.com_m[2])
+    if kind == "shell_rock":
+        return robot.shell_rest_angle
+    return 0.0
+
+
+def release_recording(kind: str, p_kpa, releases, free_s: float, truth: dict, rng, extras=ALL_EXTRAS,
+                      extra_terms=(), extra_systems=()) -> pd.DataFrame:
+    """Rest, then for each release: move, hold, let go, free response.  Dense (1 kHz) signals."""
+    rate = truth["simulation"]["sample_rate_hz"]
+    sig = SIGNAL[kind]
+    angle = _rest_angle(kind, true_robot(truth, perturbed="mass" in extras))
+    pieces = [np.full(int(1.0 * rate), angle)]
+    for target in releases:
+        hand, held = hand_phase(angle, target, truth["hand"], rng, rate)
+        pieces.append(hand)
+        df, _, _ = run_free(kind, held, free_s, p_kpa, truth, extras, extra_terms=extra_terms,
+                            extra_systems=extra_systems)
+        y = df[sig].to_numpy()[1:]
+        pieces.append(y)
+        angle = float(y[-1])
+    y = np.concatenate(pieces)
+    t = np.arange(len(y)) / rate
+    dense = pd.DataFrame({"time_s": t, sig: y})
+    if kind == "shell_rock":
+        dense["pipe_rate_rad_s"] = np.gradient(y, t)
+    return dense
+
+
+def ramp_recording(p_kpa: float, truth: dict, rng, extras=ALL_EXTRAS, extra_terms=(), extra_systems=()):
+    """Held at rest on the ramp, released, rolls off the end onto the floor."""
+    c = truth["campaign"]["ramp"]
+    rate = truth["simulation"]["sample_rate_hz"]
+    phi0 = float(rng.normal(0.0, c["initial_pipe_angle_sd_rad"]))
+    pre = rng.uniform(*c["pre_hold_s"])
+    # Long enough to leave the ramp; trimmed to exit + after_exit below.
+    df, x, spec = run_free("ramp", phi0, 4.0, p_kpa, truth, extras, ramp_length_m=c["length_m"],
+                           extra_terms=extra_terms, extra_systems=extra_systems)
+    t_exit = ramp_exit_time(df, x, spec)
+    if t_exit is not None:
+        df = df[df.time_s <= t_exit + c["after_exit_s"]]
+    n_pre = int(pre * rate)
+    head = pd.DataFrame({col: np.full(n_pre, df[col].iloc[0]) for col in df.columns})
+    head["time_s"] = np.arange(n_pre) / rate
+    body = df.copy()
+    body["time_s"] = body["time_s"] + n_pre / rate
+    dense = pd.concat([head, body], ignore_index=True)
+    keep = ["time_s", "drive_rate_rad_s", "pipe_angle_rad", "steer_angle_rad"]
+    exit_s = None if t_exit is None else round(t_exit + n_pre / rate, 4)
+    return dense[keep], exit_s, n_pre / rate
+
+
+def make_file(job: dict, out_dir: str, truth: dict) -> dict:
+    rng = _rng(truth["seed"], job["file"])
+    kind, p = job["kind"], job["pressure_kpa"]
+    meta = {"kind": kind, "pressure_kpa": p, "source": "roboball virtual test bed", "run": job["run"]}
+    if kind == "ramp":
+        dense, exit_s, release_s = ramp_recording(p, truth, rng)
+        meta.update(ramp_angle_deg=true_robot(truth).ramp_angle_deg, ramp_exit_s=exit_s)
+    else:
+        c = truth["campaign"][kind]
+        dense = release_recording(kind, p, c["releases_rad"], c["free_s"], truth, rng)
+    rec = measure(dense, truth["sensors"], rng)
+    path = Path(out_dir) / job["file"]
+    path.parent.mkdir(parents=True, exist_ok=True)
+    write_recording(path, rec, meta)
+    return dict(job, sha256=hashlib.sha256(path.read_bytes()).hexdigest(),
+                sidecar_sha256=hashlib.sha256(path.with_suffix(".json").read_bytes()).hexdigest())
+
+
+def generate(out_dir: str | Path, only: str | None = None, workers: int = 2) -> pd.DataFrame:
+    """Write the campaign (or the files whose name contains `only`) and the MANIFEST."""
+    truth = load_truth()
+    todo = [j for j in jobs(truth) if only is None or only in j["file"]]
+    out_dir = str(out_dir)
+    if workers > 1 and len(todo) > 1:
+        with ProcessPoolExecutor(max_workers=workers) as pool:
+            rows = list(pool.map(make_file, todo, [out_dir] * len(todo), [truth] * len(todo)))
+    else:
+        rows = [make_file(j, out_dir, truth) for j in todo]
+    manifest = pd.DataFrame(rows)[["file", "kind", "pressure_kpa", "run", "sha256", "sidecar_sha256"]]
+    if only is None:
+        write_csv_atomic(manifest, Path(out_dir) / "MANIFEST.csv")
+    return manifest

@@ -1,0 +1,96 @@
+"""The test bed's own physics (truth).  Written independently of the fitted models' laws."""
+from __future__ import annotations
+
+import copy
+import math
+
+import numpy as np
+import pydrake.symbolic as sym
+from pydrake.systems.primitives import SymbolicVectorSystem
+
+from ..config import RobotFacts, load_robot
+from ..sim.forces import SYM, GeneralizedTerm, Kin
+
+
+def load_truth(path=None) -> dict:
+    import yaml
+
+    from . import TRUTH_YAML
+    with open(path or TRUTH_YAML, encoding="utf-8") as fh:
+        return yaml.safe_load(fh)
+
+
+def true_robot(truth: dict, perturbed: bool = True) -> RobotFacts:
+    """The robot as built: the URDF facts with the truth's mass properties."""
+    nominal = load_robot()
+    if not perturbed:
+        return nominal
+    data = copy.deepcopy(nominal.data)
+    for link, props in truth["mass_properties"].items():
+        data["links"][link].update(props)
+    return RobotFacts(data, source="testbed truth")
+
+
+def stribeck_g(v, F_c, F_s, v_s, m=SYM):
+    return F_c + (F_s - F_c) * m.exp(-(v / v_s) * (v / v_s))
+
+
+def lugre_system(joint_params: dict):
+    """Factory for a discrete LuGre friction system on the named joints.
+
+    Bristle state z per joint, updated semi-implicitly (unconditionally stable):
+        z+ = (z + dt v) / (1 + dt sigma0 |v| / g(v)),
+    torque = -(sigma0 z + sigma1 zdot + viscous v), zdot = v - sigma0 |v| z / g(v).
+    At rest the bristles hold the joint (true stiction up to F_s); sliding gives g(v) sign(v).
+    """
+    def make(layout, dt):
+        joints = [j for j in joint_params if j in layout.joint_v]
+        q = np.array([sym.Variable(f"q{i}") for i in range(layout.nq)], dtype=object)
+        v = np.array([sym.Variable(f"v{i}") for i in range(layout.nv)], dtype=object)
+        z = np.array([sym.Variable(f"z_{j}") for j in joints], dtype=object)
+        tau = [sym.Expression(0.0) for _ in range(layout.nv)]
+        z_next = []
+        for k, j in enumerate(joints):
+            p = joint_params[j]
+            vj = v[layout.joint_v[j]]
+            g = stribeck_g(vj, p["F_c"], p["F_s"], p["v_s"])
+            zdot = vj - p["sigma0"] * sym.abs(vj) * z[k] / g
+            tau[layout.joint_v[j]] = -(p["sigma0"] * z[k] + p["sigma1"] * zdot + p["viscous"] * vj)
+            z_next.append((z[k] + dt * vj) / (1.0 + dt * p["sigma0"] * sym.abs(vj) / g))
+        if not joints:
+            z = np.array([sym.Variable("z_unused")], dtype=object)
+            z_next = [z[0]]
+        system = SymbolicVectorSystem(state=z, input=np.concatenate([q, v]), dynamics=np.array(z_next, dtype=object),
+                                      output=np.array(tau, dtype=object), time_period=dt)
+        system.set_name("testbed_lugre")
+        return system
+    return make
+
+
+def shell_truth_terms(truth: dict, p_kpa: float, robot: RobotFacts, extras: bool = True) -> list:
+    """Shell torques of the real (virtual) shell at pressure p, on top of hydroelastic contact."""
+    if not extras or p_kpa is None:
+        return []
+    sh = truth["shell"]
+    k = sh["roll_stiffness"]["k0"] + sh["roll_stiffness"]["k1"] * p_kpa
+    c = sh["linear_damping"]["c0"] * math.exp(sh["linear_damping"]["c1"] * p_kpa)
+    qd = sh["quadratic_damping"]["q"]
+    rr = sh["rolling_resistance"]
+    crr = rr["crr_ref"] * (rr["p_ref_kpa"] / p_kpa) ** rr["exponent"]
+    t_rr = crr * robot.weight_n * robot.radius
+    eps = rr["rate_eps"]
+
+    def roll(kin: Kin):
+        phi, rate = kin.pipe_angle(), kin.pipe_rate()
+        return [(kin.layout.base_v, -(k * phi + c * rate + qd * sym.abs(rate) * rate))]
+
+    def drive(kin: Kin):
+        w = kin.drive_rate()
+        t = -(c * w + t_rr * sym.tanh(w / eps))
+        R = kin.base_rotation()
+        out = [(kin.layout.base_v + i, R[i][1] * t) for i in range(3)]
+        if "drive" in kin.layout.joint_v:
+            out.append((kin.layout.joint_v["drive"], -t))
+        return out
+
+    return [GeneralizedTerm(roll, name="testbed_shell_roll"), GeneralizedTerm(drive, name="testbed_shell_drive")]

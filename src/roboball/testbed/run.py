@@ -1,0 +1,67 @@
+"""Run one experiment on the virtual robot (dense, noiseless; sensors are applied later)."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..physics import shell as shell_laws
+from ..sim.plant import ShellParams, SimSpec
+from ..sim.scenarios import simulate
+from .physics import load_truth, lugre_system, shell_truth_terms, true_robot
+
+ALL_EXTRAS = frozenset({"friction", "shell", "mass", "hydro"})
+
+
+def truth_spec(kind: str, p_kpa: float | None, truth: dict, extras=ALL_EXTRAS,
+               ramp_length_m: float | None = None, extra_terms=(), extra_systems=()) -> SimSpec:
+    """The test bed's simulation spec.  `extras` switches the hidden physics on or off:
+    friction (LuGre/Stribeck instead of Table I Majd), shell (shell torques), mass (mass
+    properties differ from the URDF), hydro (fine-mesh hydroelastic instead of point contact)."""
+    extras = frozenset(extras)
+    sim = truth["simulation"]
+    robot = true_robot(truth, perturbed="mass" in extras)
+    stand = kind in ("steer_stand", "drive_stand")
+    dt = sim["dt_stand_s"] if stand else sim["dt_shell_s"]
+    systems = list(extra_systems)
+    friction = {"steer": "none", "drive": "none"}
+    if "friction" in extras:
+        systems.append(lugre_system(truth["joint_friction"]))
+    else:
+        friction = {"steer": "majd", "drive": "majd"}
+    contact = "point"
+    shell = ShellParams()
+    if not stand and "hydro" in extras and p_kpa is not None:
+        contact = "hydroelastic"
+        sh = truth["shell"]
+        shell = ShellParams(hydro_modulus=sh["modulus_scale"] * shell_laws.hydro_modulus(
+            p_kpa * 1e3, robot.weight_n, robot.radius), hydro_dissipation=sh["hunt_crossley_s_m"])
+    terms = list(extra_terms)
+    if not stand and "shell" in extras:
+        terms += shell_truth_terms(truth, p_kpa, robot)
+    return SimSpec(kind=kind, contact=contact, friction=friction, pressure_kpa=p_kpa, shell=shell, dt=dt,
+                   extra_terms=terms, extra_systems=systems, robot=robot,
+                   resolution_hint=sim["hydro_resolution_hint_m"], ramp_length_m=ramp_length_m)
+
+
+def run_free(kind: str, release: float, duration: float, p_kpa=None, truth=None, extras=ALL_EXTRAS,
+             ramp_length_m=None, extra_terms=(), extra_systems=()):
+    """Free response from rest at `release`; returns (df at 1 kHz, states, spec)."""
+    truth = truth or load_truth()
+    spec = truth_spec(kind, p_kpa, truth, extras, ramp_length_m, extra_terms, extra_systems)
+    df, x = simulate(spec, release, duration, sample_rate_hz=truth["simulation"]["sample_rate_hz"],
+                     return_states=True)
+    return df, x, spec
+
+
+def ramp_exit_time(df, x, spec) -> float | None:
+    """First time the shell touches the floor at the bottom of the finite ramp."""
+    if spec.ramp_length_m is None:
+        return None
+    from ..sim.plant import build  # layout of the same spec (cheap relative to the run)
+    lay = build(spec).layout
+    z = x[lay.base_q + 6]
+    alpha = math.radians(spec.ramp_angle_deg if spec.ramp_angle_deg is not None else spec.robot.ramp_angle_deg)
+    floor = -spec.ramp_length_m * math.sin(alpha)
+    touching = np.nonzero(z - floor <= spec.robot.radius + 1e-3)[0]
+    return float(df.time_s.values[touching[0]]) if len(touching) else None
