@@ -1,0 +1,179 @@
+"""Importers for the paper authors' native log formats.
+
+The authors' repository ships two kinds of raw logs (recordings.md, bottom):
+
+* steer-stand log: ``steer_timestamp`` (s), ``pend_angle`` (rad)
+  -> ``time_s`` (shifted to start at 0), ``steer_angle_rad``; kind ``steer_stand``.
+* shell log: ``timestamp`` (integer nanoseconds), ``ball_roll.position`` (rad),
+  ``ball_roll.velocity`` (rad/s) -> ``time_s`` (seconds from the first sample),
+  ``pipe_angle_rad``, ``pipe_rate_rad_s``; kind ``shell_rock``.
+
+Native logs carry no sidecar, so kind and pressure come from flags, from a sidecar placed
+next to the log if there is one, or from defaults.  A shell log without a known pressure is
+imported with ``pressure_kpa = None`` and ``meta["pressure_source"] = "unknown"`` (the real
+log's pressure was not recorded); code that needs the pressure must check.
+
+The converted data pass the same validation as any recording (monotone time, radians,
+finite numbers) and the errors have the same one-line form.
+"""
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from .recording import (
+    Recording,
+    RecordingError,
+    _err,
+    _read_sidecar,
+    _read_text,
+    _split_lines,
+    check_meta,
+    check_values,
+    parse_numeric_csv,
+    read_recording,
+)
+
+__all__ = ["NATIVE_FORMATS", "detect_format", "import_native", "read_any"]
+
+# format name -> (required native columns, default kind, allowed kinds)
+NATIVE_FORMATS = {
+    "steer_log": {
+        "columns": ("steer_timestamp", "pend_angle"),
+        "kind": "steer_stand",
+        "kinds": ("steer_stand",),
+    },
+    "shell_log": {
+        "columns": ("timestamp", "ball_roll.position", "ball_roll.velocity"),
+        "kind": "shell_rock",
+        "kinds": ("shell_rock",),
+    },
+}
+
+
+def _header_of(path: Path) -> list[str]:
+    text = _read_text(path)
+    for line in _split_lines(text):
+        if line.strip():
+            return [h.strip() for h in next(csv.reader([line]))]
+    raise _err(path, "file", "empty file (no header, no data)")
+
+
+def detect_format(path: str | Path) -> str:
+    """Which format a CSV file is in: "recording", "steer_log" or "shell_log", judged from
+    its header row.  Raises RecordingError if it is none of them."""
+    path = Path(path)
+    header = _header_of(path)
+    if header and header[0] == "time_s":
+        return "recording"
+    for name, spec in NATIVE_FORMATS.items():
+        if header[: len(spec["columns"])] == list(spec["columns"]) or set(spec["columns"]) <= set(header):
+            return name
+    raise _err(
+        path, "line 1 (header)",
+        f"not a recording (first column time_s) nor a known native log (columns: {', '.join(header)})",
+        "expected time_s,...; steer_timestamp,pend_angle; or timestamp,ball_roll.position,ball_roll.velocity",
+    )
+
+
+def import_native(
+    path: str | Path,
+    kind: str | None = None,
+    pressure_kpa: float | None = None,
+    ramp_angle_deg: float | None = None,
+    ramp_exit_s: float | None = None,
+) -> Recording:
+    """Convert a native steer-stand or shell log into a :class:`Recording` (in memory; use
+    :func:`roboball.recording.write_recording` to save it).
+
+    Time is shifted to start at 0; the offset is kept in ``meta["time_offset_s"]``
+    (steer log, seconds) or ``meta["time_offset_ns"]`` (shell log, integer ns).
+    """
+    path = Path(path)
+    fmt = detect_format(path)
+    if fmt == "recording":
+        raise _err(path, "line 1 (header)", "already a recording (first column time_s), not a native log",
+                   "read it with read_recording or read_any")
+    spec = NATIVE_FORMATS[fmt]
+    text = _read_text(path)
+    header, values, line_numbers = parse_numeric_csv(path, text)
+    col = {name: header.index(name) for name in spec["columns"]}
+
+    sidecar, side = _read_sidecar(path)
+    meta: dict[str, Any] = dict(sidecar or {})
+    sources = {k: f"sidecar {side.name}" for k in meta}
+    for key, val in (("kind", kind), ("pressure_kpa", pressure_kpa),
+                     ("ramp_angle_deg", ramp_angle_deg), ("ramp_exit_s", ramp_exit_s)):
+        if val is not None:
+            meta[key] = val
+            sources[key] = "flag --" + key.replace("_", "-")
+    meta.setdefault("kind", spec["kind"])
+    if meta["kind"] not in spec["kinds"]:
+        raise _err(
+            path, "field kind",
+            f"a {fmt.replace('_', ' ')} can only be kind {' or '.join(spec['kinds'])}, not {meta['kind']!r}",
+            "drop --kind or use the matching log",
+        )
+
+    if fmt == "steer_log":
+        t = values[:, col["steer_timestamp"]]
+        if np.all(np.isfinite(t)) and np.nanmax(np.abs(t)) > 1e9:
+            raise _err(path, "column steer_timestamp", f"values up to {np.nanmax(np.abs(t)):.4g} are not seconds",
+                       "the steer log's timestamps must be in seconds")
+        offset = float(t[0])
+        time_s = t - offset
+        out_header = ["time_s", "steer_angle_rad"]
+        out = np.column_stack([time_s, values[:, col["pend_angle"]]])
+        meta["time_offset_s"] = offset
+    else:
+        raw = values[:, col["timestamp"]]
+        # Integer nanoseconds up to ~9e15 are exact in float64; beyond that re-read as int.
+        if np.all(np.isfinite(raw)) and np.max(np.abs(raw)) < 2 ** 53:
+            t_ns = raw.astype(np.int64)
+        else:
+            t_ns = np.asarray(pd.read_csv(path, usecols=["timestamp"], dtype={"timestamp": "int64"})["timestamp"])
+        steps = np.diff(t_ns)
+        pos = steps[steps > 0]
+        if pos.size and np.median(pos) < 1e3:
+            raise _err(
+                path, "column timestamp",
+                f"median step {np.median(pos):.4g} is far too small for nanoseconds",
+                "the shell log's timestamp column must be integer nanoseconds",
+            )
+        offset_ns = int(t_ns[0])
+        time_s = (t_ns - offset_ns).astype(float) * 1e-9
+        out_header = ["time_s", "pipe_angle_rad", "pipe_rate_rad_s"]
+        out = np.column_stack([time_s, values[:, col["ball_roll.position"]], values[:, col["ball_roll.velocity"]]])
+        meta["time_offset_ns"] = offset_ns
+        if meta.get("pressure_kpa") is None:
+            meta["pressure_kpa"] = None
+            meta["pressure_source"] = "unknown"
+        else:
+            meta.setdefault("pressure_source", sources.get("pressure_kpa", "sidecar").split(" ")[0])
+    meta["source_format"] = fmt
+    meta["source_file"] = path.name
+
+    # Same checks as a recording; pressure may be unknown for an imported shell log.
+    check_values(path, out_header, out, line_numbers, meta["kind"])
+    checked = check_meta(meta, path, sources, allow_unknown_pressure=True)
+    data = pd.DataFrame({h: out[:, j] for j, h in enumerate(out_header)})
+    return Recording(data=data, meta=checked, path=path)
+
+
+def read_any(path: str | Path, **flags: Any) -> Recording:
+    """Read a recording or a native log, whichever `path` is.  `flags` are those of
+    :func:`roboball.recording.read_recording` (kind, pressure_kpa, ramp_angle_deg,
+    ramp_exit_s); None values are ignored."""
+    path = Path(path)
+    flags = {k: v for k, v in flags.items() if v is not None}
+    allowed = {"kind", "pressure_kpa", "ramp_angle_deg", "ramp_exit_s"}
+    unknown = set(flags) - allowed
+    if unknown:
+        raise TypeError(f"read_any: unknown flag(s) {sorted(unknown)}")
+    if detect_format(path) == "recording":
+        return read_recording(path, **flags)
+    return import_native(path, **flags)
