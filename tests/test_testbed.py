@@ -55,3 +55,22 @@ def test_regenerating_a_file_reproduces_its_manifest_hash(tmp_path, name):
 def test_regenerating_the_whole_campaign_reproduces_the_manifest(tmp_path):
     generate(tmp_path, workers=2)
     assert (tmp_path / "MANIFEST.csv").read_bytes() == (RAW / "MANIFEST.csv").read_bytes()
+
+
+def test_testbed_shell_logs_look_like_the_papers_fig10(robot):
+    """Decay from the test bed's shell logs: zeta falls with pressure, omega_n sits above eq. 5,
+    and the damping is amplitude-dependent (first cycles damp more than the last)."""
+    from roboball.decay import decay_table
+    from roboball.recording import normalise, read_recording
+
+    man = pd.read_csv(RAW / "MANIFEST.csv")
+    rows = []
+    for row in man[man.kind == "shell_rock"].itertuples():
+        d = decay_table(normalise(read_recording(RAW / row.file)))
+        assert len(d) >= 3
+        rows.append(d)
+    d = pd.concat(rows)
+    by_p = d.groupby("pressure_kpa")[["zeta", "omega_n_rad_s"]].mean().sort_index()
+    assert np.all(np.diff(by_p.zeta.to_numpy()) < 0), by_p
+    assert np.all(by_p.omega_n_rad_s.to_numpy() > robot.omega_n_eq5 * 1.1)
+    assert (d.zeta_early > d.zeta_late).mean() >= 0.9
