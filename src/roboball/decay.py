@@ -37,7 +37,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from .errors import RoboballError
-from .releases import Release, prepare_signal, recording_releases, zigzag
+from .releases import Release, prepare_signal, zigzag
 
 if TYPE_CHECKING:  # pragma: no cover
     from .recording import Recording

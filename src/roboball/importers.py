@@ -27,7 +27,6 @@ import pandas as pd
 
 from .recording import (
     Recording,
-    RecordingError,
     _err,
     _read_sidecar,
     _read_text,
@@ -131,6 +130,14 @@ def import_native(
         meta["time_offset_s"] = offset
     else:
         raw = values[:, col["timestamp"]]
+        frac = np.nonzero(np.isfinite(raw) & (raw != np.round(raw)))[0]
+        if frac.size:
+            r = int(frac[0])
+            raise _err(
+                path, f"line {line_numbers[r]}, column timestamp",
+                f"{raw[r]:.9g} is not an integer number of nanoseconds",
+                "the shell log's timestamp column must be integer nanoseconds",
+            )
         # Integer nanoseconds up to ~9e15 are exact in float64; beyond that re-read as int.
         if np.all(np.isfinite(raw)) and np.max(np.abs(raw)) < 2 ** 53:
             t_ns = raw.astype(np.int64)

@@ -15,7 +15,7 @@ same code works for a 1-mrad-quantised pendulum log at 80 Hz and a 100 Hz shell 
 2. Find the turning points of the smoothed signal with a hysteresis ("zig-zag") of 5 sigma.
 3. Every turning point is a candidate hold.  It is accepted as a release when
    - the body was held: slower than 10% of the free swing's peak speed (offset x omega)
-     for at least `min_hold_s` AND for clearly longer (2x) than the turning point of a free
+     for at least `min_hold_s` AND for clearly longer (2.5x) than the turning point of a free
      swing of the same frequency and amplitude is (this separates a hand hold from a
      turning point of an ongoing oscillation);
    - it lies further than 20 sigma from the final rest of the motion that follows, and its
@@ -48,7 +48,7 @@ from dataclasses import asdict, dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.ndimage import median_filter
+from scipy.ndimage import maximum_filter1d, median_filter, minimum_filter1d
 from scipy.signal import savgol_filter
 
 from .errors import RoboballError
@@ -284,19 +284,22 @@ def _hinge_fit(t: np.ndarray, y: np.ndarray, t_lo: float, t_hi: float, powers: t
 # Oscillating kinds: hold, let go, free decaying oscillation
 # --------------------------------------------------------------------------------------
 def _rest_estimate(ext_vals: np.ndarray) -> float:
-    """Rest level of a decaying oscillation from its last three turning points: for
-    geometric decay (a, b, c) = (R + d, R - r d, R + r^2 d) gives R = (ac - b^2)/(a + c - 2b)."""
-    if len(ext_vals) >= 3:
-        a, b, c = ext_vals[-3:]
-        den = a + c - 2 * b
-        if abs(den) > 1e-12:
-            r = (a * c - b * b) / den
-            lo, hi = min(b, c), max(b, c)
-            if lo <= r <= hi:
-                return float(r)
-    if len(ext_vals) >= 2:
-        return float(0.5 * (ext_vals[-1] + ext_vals[-2]))
-    return float(ext_vals[-1])
+    """Rest level of a decaying oscillation from its turning points E_k.
+
+    Successive turning points lie on opposite sides of rest R with E_{k+1} - R =
+    -r (E_k - R), r being the decay ratio per half cycle (the median ratio of successive
+    peak-to-peak swings), so every pair gives R = (E_{k+1} + r E_k) / (1 + r); the median
+    over all pairs is robust to noise and to a changing ratio (dry friction)."""
+    e = np.asarray(ext_vals, dtype=float)
+    if len(e) < 2:
+        return float(e[-1])
+    p2p = np.abs(np.diff(e))
+    if len(p2p) >= 2 and np.all(p2p[:-1] > 0):
+        r = float(np.median(p2p[1:] / p2p[:-1]))
+        r = min(max(r, 0.05), 1.0)
+    else:
+        r = 1.0
+    return float(np.median((e[1:] + r * e[:-1]) / (1.0 + r)))
 
 
 def _hold_around(sig: PreparedSignal, k_from: int, k_to: int, k_floor: int, v_thr: float) -> tuple[int, int]:
@@ -334,7 +337,7 @@ def _long_enough(held: float, v_thr: float, amplitude: float, omega: float, min_
     2 asin(v_thr / (A omega)) / omega around a turning point; a hold must last clearly longer."""
     x = min(v_thr / max(abs(amplitude) * omega, 1e-300), 1.0)
     t_free = 2.0 * math.asin(x) / omega
-    return held >= max(min_hold_s, 2.0 * t_free)
+    return held >= max(min_hold_s, 2.5 * t_free)
 
 
 def _oscillation_releases(sig: PreparedSignal, kind: str, min_hold_s: float, min_offset_sigma: float,
@@ -384,20 +387,34 @@ def _oscillation_releases(sig: PreparedSignal, kind: str, min_hold_s: float, min
         # else extrapolated from the decay of the last turning points.
         k_last = ext[last]
         k_next = ext[last + 1] if last + 1 < n_ext else len(ys) - 1
-        tail = ys[k_last:k_next + 1]
         settle_n = max(int(round(0.5 / sig.dt)), 1)
+        tail = ys[k_last:k_last + int(1.5 * half_period / sig.dt) + 2 * settle_n]
         rest = None
-        start = int(round(0.5 * half_period / sig.dt))
-        if len(tail) > start + settle_n:
-            seg = tail[start:start + settle_n]
-            if np.ptp(seg) <= 3 * h:
-                rest = float(np.median(seg))
+        if len(tail) > settle_n:
+            # First 0.5 s stretch after the last turning point in which the body is still.
+            half_w = settle_n // 2
+            spread = (maximum_filter1d(tail, settle_n, mode="nearest")
+                      - minimum_filter1d(tail, settle_n, mode="nearest"))[half_w:len(tail) - half_w]
+            still = np.nonzero(spread <= 3 * h)[0]
+            if still.size and still[0] * sig.dt <= 1.5 * half_period:
+                i0 = int(still[0])
+                # Average over the whole still stretch (up to 3 s) for a precise level.
+                moving = np.nonzero(spread[i0:] > 3 * h)[0]
+                i1 = i0 + (int(moving[0]) if moving.size else len(spread) - i0) + settle_n - 1
+                i1 = min(i1, i0 + int(3.0 / sig.dt), len(tail))
+                level = float(np.mean(tail[i0:i1]))
+                # A settling body comes to rest between its last two turning points (at the
+                # last one if dry friction stops it); a hand hold elsewhere is not rest.
+                lo = min(vals[-1], vals[-2]) - 3 * h
+                hi = max(vals[-1], vals[-2]) + 3 * h
+                if lo <= level <= hi:
+                    rest = level
         if rest is None:
             rest = _rest_estimate(vals_a[1:]) if len(vals_a) > 3 else _rest_estimate(vals_a)
         offset = Y - rest
         dev = vals_a - rest
         ok = abs(offset) >= max(min_offset_sigma * sig.sigma, 4 * h)
-        ok = ok and dev[1] * offset < 0 and abs(dev[1]) < 1.05 * abs(offset)
+        ok = ok and dev[1] * offset < 0 and abs(dev[1]) < 1.05 * abs(offset) + h
         ok = ok and dev[2] * offset > 0
         # The first half swing loses no more than a damped oscillation does later on: a
         # hand that lowers the body into a hand-held jiggle overshoots far less.
@@ -424,6 +441,7 @@ def _oscillation_releases(sig: PreparedSignal, kind: str, min_hold_s: float, min
         # after the signal leaves rest again for the next hand action.
         t_end = tu[k_last] + half_period
         if last + 1 < n_ext:
+            tail = ys[k_last:k_next + 1]
             near = np.nonzero(np.abs(tail - rest) <= max(2 * h, 0.25 * abs(vals_a[-1] - rest)))[0]
             if near.size:
                 t_end = min(t_end, float(tu[k_last + int(near[-1])]))

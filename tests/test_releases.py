@@ -1,0 +1,205 @@
+"""Release detection: real logs, synthetic hand releases with realistic logging artefacts,
+recordings without a release, ramp starts."""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from roboball.errors import RoboballError
+from roboball.importers import read_any
+from roboball.recording import Recording
+from roboball.releases import (
+    find_releases,
+    free_response,
+    recording_releases,
+    require_releases,
+    synthetic_release_log,
+)
+
+REAL = Path(os.environ.get("ROBOBALL_REAL_DATA", Path(__file__).resolve().parents[2] / "shared" / "data" / "roboball_real"))
+STEER = REAL / "steering_static_stand_response.csv"
+SHELL = REAL / "dynamic_data.csv"
+needs_real = pytest.mark.skipif(not (STEER.exists() and SHELL.exists()), reason=f"real logs not found in {REAL}")
+
+
+@needs_real
+def test_real_steer_log_three_releases():
+    rec = read_any(STEER)
+    rel = recording_releases(rec)
+    assert len(rel) == 3
+    got = np.array([r.t_release_s for r in rel])
+    # README: released near 8.5, 17.5 and 26 s (time from the first sample).
+    np.testing.assert_allclose(got, [8.5, 17.5, 26.0], atol=0.5)
+    # Read off the raw samples: the hand eases the pendulum until it accelerates freely at
+    # about 8.95-9.03 s, 17.03-17.06 s and 26.00-26.02 s.
+    np.testing.assert_allclose(got, [8.98, 17.05, 26.01], atol=0.1)
+    for r in rel:
+        assert abs(r.y_release) > 0.9  # held far from rest: -1.22, -1.36, +0.91 rad
+        assert -0.045 < r.y_rest < -0.02  # rests near -0.03 to -0.04 rad
+        assert r.held_from_s < r.t_release_s - 0.25 < r.t_end_s
+        assert 0.55 < 2 * r.half_period_s < 1.35
+    # each free response ends before the next hand action starts
+    assert rel[0].t_end_s < rel[1].held_from_s and rel[1].t_end_s < rel[2].held_from_s
+    assert rel[0].t_end_s == pytest.approx(14.3, abs=0.6)
+
+
+@needs_real
+def test_real_shell_log_one_release():
+    rec = read_any(SHELL)
+    rel = recording_releases(rec)
+    assert len(rel) == 1
+    r = rel[0]
+    assert r.t_release_s == pytest.approx(33.0, abs=0.1)  # README: near t = 33 s
+    assert r.y_release == pytest.approx(-0.40, abs=0.02)  # tilted to about -0.4 rad
+    assert r.held_from_s < 31.0  # held for many seconds
+    assert r.t_end_s > 36.0
+    # indices point into the recording's arrays
+    assert rec.time[r.i_release] <= r.t_release_s < rec.time[r.i_release + 1]
+
+
+def _random_specs(rng, n=3):
+    return [
+        dict(offset=float(rng.choice([-1, 1]) * rng.uniform(0.1, 0.8)), zeta=float(rng.uniform(0.03, 0.25)),
+             omega_n=float(rng.uniform(2.0, 6.0)), hold_s=float(rng.uniform(0.5, 1.5)),
+             move_s=float(rng.uniform(0.6, 2.0)), hold_drift=float(rng.normal(0.0, 0.003)))
+        for _ in range(n)
+    ]
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_synthetic_multi_release_instants(seed):
+    rng = np.random.default_rng(1000 + seed)
+    t, y, truth = synthetic_release_log(_random_specs(rng, n=int(rng.integers(1, 5))), rest=-0.035, seed=seed)
+    rel = find_releases(t, y, "steer_stand")
+    assert len(rel) == len(truth)
+    for k, (r, tr) in enumerate(zip(rel, truth)):
+        assert r.t_release_s == pytest.approx(tr["t_release_s"], abs=0.05)
+        assert r.y_rest == pytest.approx(-0.035, abs=0.01)
+        assert r.y_release == pytest.approx(tr["offset"] - 0.035, abs=0.1 * abs(tr["offset"]) + 0.005)
+        # the free response ends before the hand moves the body again (or at the file's end)
+        assert r.t_end_s <= (tr["t_end_s"] + 0.3 if k + 1 < len(truth) else t[-1])
+        assert 2 * r.half_period_s == pytest.approx(2 * np.pi / tr["omega_d"], rel=0.15)
+
+
+CASES = {
+    # a hand that drifts while it holds
+    "drifting hold": [dict(offset=0.5, zeta=0.1, omega_n=4, hold_drift=0.02, hold_s=0.5),
+                      dict(offset=-0.8, zeta=0.05, omega_n=5.5, hold_drift=-0.03, hold_s=0.35)],
+    # holds as short as in the real steer log
+    "short holds": [dict(offset=1.0, zeta=0.05, omega_n=5.5, hold_s=0.3),
+                    dict(offset=-0.8, zeta=0.05, omega_n=5.5, hold_s=0.3)],
+    # 30 and 50 mrad offsets, 1 mrad quantisation
+    "small offsets": [dict(offset=0.03, zeta=0.1, omega_n=4, hold_s=0.6),
+                      dict(offset=-0.05, zeta=0.05, omega_n=2, hold_s=0.8)],
+    # slow and lightly / heavily damped
+    "slow": [dict(offset=0.3, zeta=0.03, omega_n=2, hold_s=0.6),
+             dict(offset=-0.4, zeta=0.25, omega_n=2, hold_s=0.6)],
+    # the hand grabs the body mid-swing and moves it to the next hold
+    "grab mid-swing": [dict(offset=0.5, zeta=0.05, omega_n=4, free_s=3.0),
+                       dict(offset=-0.5, zeta=0.05, omega_n=4, free_s=2.0),
+                       dict(offset=0.4, zeta=0.1, omega_n=3)],
+    # quick hand moves
+    "fast moves": [dict(offset=0.5, zeta=0.1, omega_n=4, move_s=0.4, hold_s=0.5),
+                   dict(offset=-0.5, zeta=0.2, omega_n=6, move_s=0.3, hold_s=0.4)],
+}
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_synthetic_hand_phases(case, seed):
+    t, y, truth = synthetic_release_log(CASES[case], seed=seed)
+    rel = find_releases(t, y, "shell_rock")
+    assert [r.t_release_s for r in rel] == pytest.approx([tr["t_release_s"] for tr in truth], abs=0.05)
+
+
+def test_no_release_in_rest_and_noise():
+    rng = np.random.default_rng(5)
+    t = np.cumsum(rng.uniform(0.010, 0.0125, 3000))
+    y = np.round((-0.035 + rng.normal(0, 0.0005, t.size)) / 0.001) * 0.001
+    assert find_releases(t, y, "steer_stand") == []
+    rec = Recording(pd.DataFrame({"time_s": t, "steer_angle_rad": y}), {"kind": "steer_stand", "pressure_kpa": None},
+                    Path("runs/quiet.csv"))
+    with pytest.raises(RoboballError) as info:
+        require_releases(rec)
+    msg = str(info.value)
+    assert msg.startswith("runs/quiet.csv: steer_angle_rad: no release found") and "\n" not in msg
+
+
+def test_no_release_in_hand_moves_without_letting_go():
+    """Move, hold, move back slowly (never let go): no free oscillation, no release."""
+    rng = np.random.default_rng(6)
+    t = np.cumsum(rng.uniform(0.010, 0.0125, 2000))
+    y = np.interp(t, [0, 2, 4, 6, 9, 12, 15, 30], [0, 0, 0.6, 0.6, 0.0, 0.0, -0.5, -0.5])
+    y = y + rng.normal(0, 0.0005, t.size)
+    assert find_releases(t, y, "steer_stand") == []
+
+
+def test_growing_oscillation_is_no_release():
+    t = np.arange(0, 20, 0.01)
+    y = 0.5 * np.exp(0.05 * t) * np.cos(4 * t) * (t > 2) + 0.5 * (t <= 2)
+    assert find_releases(t, y, "steer_stand") == []
+
+
+def test_record_starting_at_release():
+    """A simulation started at the release state: the first sample is the release."""
+    t = np.arange(0, 12, 0.01)
+    y = -0.0355 + free_response(t, 0.4, 0.08, 5.6)
+    rel = find_releases(t, y, "steer_stand")
+    assert len(rel) == 1 and rel[0].t_release_s == 0.0 and rel[0].i_release == 0
+    assert rel[0].y_rest == pytest.approx(-0.0355, abs=2e-3)
+
+
+def test_indices_with_duplicate_stamps():
+    t, y, truth = synthetic_release_log([dict(offset=0.4, zeta=0.1, omega_n=4)], duplicate_probability=0.05, seed=3)
+    assert np.any(np.diff(t) == 0)
+    (r,) = find_releases(t, y, "steer_stand")
+    assert t[r.i_release] <= r.t_release_s
+    assert r.i_release + 1 == len(t) or t[r.i_release + 1] > r.t_release_s
+    assert t[r.i_end] <= r.t_end_s
+
+
+@pytest.mark.parametrize("t0", [0.8, 2.37, 4.0])
+def test_ramp_start_of_motion(t0):
+    rng = np.random.default_rng(int(t0 * 100))
+    t = np.sort(rng.uniform(0, 9, 800))
+    y = np.where(t > t0, 1.5 * (t - t0) + 0.1 * (t - t0) ** 2, 0.0) + rng.normal(0, 0.005, t.size)
+    (r,) = find_releases(t, y, "ramp", ramp_exit_s=7.0)
+    assert r.t_release_s == pytest.approx(t0, abs=0.05)
+    assert r.t_end_s == 7.0 and r.kind == "ramp"
+    (r,) = find_releases(t, y, "ramp")
+    assert r.t_end_s == t[-1]
+    assert find_releases(t, rng.normal(0, 0.005, t.size), "ramp") == []
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    n=st.integers(0, 400),
+    seed=st.integers(0, 2 ** 32 - 1),
+    kind=st.sampled_from(["steer_stand", "drive_stand", "shell_rock", "ramp"]),
+    scale=st.sampled_from([0.0, 1e-6, 1e-3, 0.5, 50.0]),
+    shape=st.sampled_from(["noise", "steps", "spikes", "sine", "constant"]),
+)
+def test_property_find_releases_never_crashes(n, seed, kind, scale, shape):
+    rng = np.random.default_rng(seed)
+    t = np.cumsum(rng.choice([0.0, 0.01, 0.012, 0.05], size=n)) if n else np.array([])
+    if shape == "noise":
+        y = rng.normal(0, scale, n)
+    elif shape == "steps":
+        y = scale * np.floor(rng.uniform(0, 4, n)).cumsum() % 3
+    elif shape == "spikes":
+        y = scale * (rng.random(n) < 0.05)
+    elif shape == "sine":
+        y = scale * np.sin(3 * t) * np.exp(-0.1 * t)
+    else:
+        y = np.full(n, scale)
+    rel = find_releases(t, y, kind)
+    assert isinstance(rel, list)
+    for r in rel:
+        assert np.isfinite(r.t_release_s) and r.t_release_s <= r.t_end_s + 1e-9
+        assert 0 <= r.i_release <= r.i_end < n
