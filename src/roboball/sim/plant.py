@@ -61,6 +61,8 @@ class ShellParams:
     hydro_dissipation: float | None = None      # s/m; None -> eq. 11 (C_inject)
     modulus_scale: float = 1.0                  # sensitivity sweep factors (section III-D)
     dissipation_scale: float = 1.0
+    injected_steer: bool = True                 # injected K, C about the steer (roll) direction
+    injected_drive: bool = True                 # injected C about the driveshaft (section IV)
 
 
 @dataclass
@@ -206,7 +208,7 @@ def build(spec: SimSpec, sample_period: float | None = None, meshcat=None) -> Bu
     injected = None
     if spec.contact == "injected" and layout.base_v is not None:
         k, c = shell_coefficients(robot, spec)
-        injected = InjectedShell(k, c)
+        injected = InjectedShell(k, c, steer=spec.shell.injected_steer, drive=spec.shell.injected_drive)
         terms.append(injected)
     terms.extend(spec.extra_terms)
     force_system = build_force_system(layout, terms)

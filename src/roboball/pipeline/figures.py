@@ -1,0 +1,219 @@
+"""Figures and tables for people: labelled axes with units, legends, the paper's figure number
+in the file name.  Every figure is written as PNG and PDF (atomically)."""
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+
+from ..atomic import write_csv_atomic, write_text_atomic  # noqa: E402
+
+STAGES = ("fig10", "fig11", "fig13_14")
+CONTACT_COLOURS = {"point": "#7f7f7f", "injected": "#1f77b4", "hydroelastic": "#d62728", "diagnosed": "#2ca02c"}
+plt.rcParams.update({"font.size": 10, "axes.grid": True, "grid.alpha": 0.3, "savefig.dpi": 150,
+                     "pdf.fonttype": 42, "svg.hashsalt": "roboball", "figure.constrained_layout.use": True})
+_META = {"png": {"Software": None}, "pdf": {"CreationDate": None, "Producer": None, "Creator": None}}
+
+
+def save(fig, path: str | Path) -> None:
+    """Save `fig` to path (and its PDF twin when path ends in .png), atomically, no timestamps."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    targets = [path] + ([path.with_suffix(".pdf")] if path.suffix == ".png" else [])
+    for target in targets:
+        fmt = target.suffix[1:]
+        fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=target.suffix)
+        os.close(fd)
+        try:
+            fig.savefig(tmp, format=fmt, metadata=_META.get(fmt))
+            os.replace(tmp, target)
+        except BaseException:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
+            raise
+    plt.close(fig)
+
+
+def qc_plot(rec, releases, path) -> None:
+    """Whole recording with each release marked (hand phase shaded, release instant, free response)."""
+    sig = rec.main_signal()
+    unit = "rad/s" if sig.endswith("_rad_s") else "rad"
+    fig, ax = plt.subplots(figsize=(9, 3.2))
+    ax.plot(rec.time, rec.signal(sig), lw=0.8, color="k", label=sig)
+    for i, r in enumerate(releases):
+        ax.axvspan(r.held_from_s, r.t_release_s, color="orange", alpha=0.25, label="hand hold" if i == 0 else None)
+        ax.axvspan(r.t_release_s, r.t_end_s, color="tab:blue", alpha=0.08, label="free response" if i == 0 else None)
+        ax.axvline(r.t_release_s, color="tab:red", lw=1, label="release" if i == 0 else None)
+    if rec.meta.get("ramp_exit_s"):
+        ax.axvline(rec.meta["ramp_exit_s"], color="tab:purple", ls="--", label="leaves ramp")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel(f"{sig.rsplit('_', 1)[0] if unit == 'rad' else sig[:-6]} ({unit})")
+    p = rec.pressure_kpa
+    ax.set_title(f"QC: {Path(str(rec.path)).stem} ({rec.kind}{'' if p is None else f', {p:g} kPa'}): "
+                 f"{len(releases)} release(s)")
+    ax.legend(loc="upper right", fontsize=8)
+    save(fig, path)
+
+
+def _reg(table):
+    t = pd.read_csv(table).set_index("name")
+    return t
+
+
+def fig10(points: str, regression: str, sims: str, out_png: str, robot_yaml: str = "") -> None:
+    """Fig. 10: measured zeta and omega_n vs pressure (error bars), regressions with 95% bands,
+    eq. 5 (dashed), and each contact model's simulated values."""
+    from ..config import load_robot
+    from ..physics import shell as sl
+    from ..regress import fit_regressions
+
+    robot = load_robot(robot_yaml or None)
+    pts = pd.read_csv(points)
+    sim = pd.read_csv(sims)
+    sim = sim[(sim.modulus_scale == 1.0) & (sim.dissipation_scale == 1.0)]
+    reg = fit_regressions(pts)
+    pp = np.linspace(pts.pressure_kpa.min() - 1, pts.pressure_kpa.max() + 1, 100)
+    fig, axes = plt.subplots(2, 1, figsize=(7, 7.5), sharex=True)
+    for ax, col, se, fit, label, unit in [
+            (axes[0], "zeta", "zeta_se", reg.zeta, "damping ratio $\\zeta$", "-"),
+            (axes[1], "omega_n_rad_s", "omega_n_se_rad_s", reg.omega_n, "natural frequency $\\omega_n$", "rad/s")]:
+        ax.errorbar(pts.pressure_kpa, pts[col], yerr=1.96 * pts[se], fmt="o", color="k", ms=4, capsize=2,
+                    label="measured releases (95% CI)")
+        lo, hi = fit.band(pp)
+        ax.plot(pp, fit.predict(pp), color="k", lw=1.5, label=f"regression: {fit.label if hasattr(fit, 'label') else ''}".rstrip(": "))
+        ax.fill_between(pp, lo, hi, color="k", alpha=0.12, label="95% confidence band")
+        for contact, g in sim.groupby("contact"):
+            m = g.groupby("pressure_kpa")[col].agg(["mean", "std"]).reset_index()
+            off = {"point": -0.35, "injected": 0.0, "hydroelastic": 0.35}.get(contact, 0)
+            ax.errorbar(m.pressure_kpa + off, m["mean"], yerr=m["std"].fillna(0), fmt="s", mfc="none",
+                        color=CONTACT_COLOURS[contact], ms=6, capsize=2, label=f"Drake, {contact} contact")
+        ax.set_ylabel(f"{label} ({unit})")
+    axes[1].axhline(robot.omega_n_eq5, color="tab:purple", ls="--", lw=1.2,
+                    label=f"eq. 5: $\\sqrt{{K_{{eq}}/M_{{eq}}}}$ = {robot.omega_n_eq5:.3f} rad/s")
+    a, b = reg.zeta.value("zeta_a"), reg.zeta.value("zeta_b")
+    c, d = reg.omega_n.value("omega_n_c"), reg.omega_n.value("omega_n_d")
+    axes[0].set_title(f"$\\zeta(p) = {a:.3f}\\,e^{{{b:.4f}\\,p}}$,  $\\omega_n(p) = {c:.3f} + {d:.4f}\\,p$")
+    axes[1].set_xlabel("shell gauge pressure p (kPa)")
+    for ax in axes:
+        ax.legend(fontsize=7, loc="best", ncol=2)
+    fig.suptitle("Fig. 10: locked-steer shell dynamics vs pressure")
+    save(fig, out_png)
+
+
+def fig11(sweep: str, points: str, out_png: str, out_table: str, out_md: str, carried_modulus: float = 1.0,
+          carried_dissipation: float = 0.5) -> None:
+    """Fig. 11: hydroelastic sensitivity (modulus and dissipation x0.5, x1.5, both) of the
+    simulated damping ratio at every pressure, and the percent-error change against the control."""
+    sw = pd.read_csv(sweep)
+    meas = pd.read_csv(points).groupby("pressure_kpa").zeta.mean()
+    sw["case"] = [("control" if (m, d) == (1.0, 1.0) else
+                   f"modulus x{m:g}" if d == 1.0 else f"dissipation x{d:g}" if m == 1.0 else f"both x{m:g}")
+                  for m, d in zip(sw.modulus_scale, sw.dissipation_scale)]
+    g = sw.groupby(["case", "modulus_scale", "dissipation_scale", "pressure_kpa"]).zeta.mean().reset_index()
+    g["zeta_measured"] = g.pressure_kpa.map(meas)
+    g["abs_error_percent"] = 100 * (g.zeta - g.zeta_measured).abs() / g.zeta_measured
+    ctrl = g[g.case == "control"].set_index("pressure_kpa").abs_error_percent
+    g["error_change_vs_control_percent"] = g.abs_error_percent - g.pressure_kpa.map(ctrl)
+    g = g.sort_values(["case", "pressure_kpa"]).reset_index(drop=True)
+    write_csv_atomic(g, out_table)
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
+    cases = sorted(g.case.unique(), key=lambda c: (c != "control", c))
+    for k, case in enumerate(cases):
+        s = g[g.case == case]
+        style = dict(lw=2.5, color="k") if case == "control" else dict(lw=1.2)
+        axes[0].plot(s.pressure_kpa, s.zeta, "o-", label=case, **style)
+        if case != "control":
+            w = 0.8 / (len(cases) - 1)
+            axes[1].bar(s.pressure_kpa.to_numpy() + (k - len(cases) / 2) * w, s.error_change_vs_control_percent, w * 0.95, label=case)
+    axes[0].plot(meas.index, meas.values, "kx", ms=9, mew=2, label="measured (mean)")
+    axes[0].set_xlabel("pressure (kPa)")
+    axes[0].set_ylabel("simulated damping ratio $\\zeta$ (-)")
+    axes[0].legend(fontsize=7)
+    axes[1].axhline(0, color="k", lw=0.8)
+    axes[1].set_xlabel("pressure (kPa)")
+    axes[1].set_ylabel("change of |zeta error| vs control (percentage points)")
+    axes[1].legend(fontsize=7)
+    fig.suptitle("Fig. 11: hydroelastic parameter sensitivity (negative = closer to the data)")
+    save(fig, out_png)
+    mean_err = g.groupby("case").abs_error_percent.mean().sort_values()
+    carried = ("control" if (carried_modulus, carried_dissipation) == (1.0, 1.0) else
+               f"modulus x{carried_modulus:g}" if carried_dissipation == 1.0 else
+               f"dissipation x{carried_dissipation:g}" if carried_modulus == 1.0 else f"both x{carried_modulus:g}")
+    best = mean_err.index[0]
+    lines = ["# Hydroelastic sensitivity sweep (section III-D)", "",
+             "Mean absolute error of the simulated damping ratio against the measured mean, over all pressures:", "",
+             "| case | mean abs error (%) |", "|---|---|"]
+    lines += [f"| {c} | {v:.1f} |" for c, v in mean_err.items()]
+    verdict = ("still favour" if best == carried else "no longer favour")
+    lines += ["", f"Setting carried forward to the ramp (config `shell.carried_forward`): **{carried}**. "
+              f"Best case in this sweep: **{best}**. The data {verdict} the carried-forward setting."]
+    write_text_atomic(out_md, "\n".join(lines) + "\n")
+
+
+def fig13_14(summary: str, out13: str, out14: str, out_csv: str, out_md: str) -> None:
+    """Fig. 13 (PME per pressure and model, spread over runs, posterior intervals) and Fig. 14
+    (averaged over pressures); the PME table as CSV and Markdown."""
+    s = pd.read_csv(summary)
+    contacts = [c for c in ["point", "injected", "hydroelastic", "diagnosed"] if c in set(s.contact)]
+    agg = s.groupby(["contact", "pressure_kpa"]).agg(pme_mean_percent=("pme_percent", "mean"),
+                                                      pme_min_percent=("pme_percent", "min"),
+                                                      pme_max_percent=("pme_percent", "max"),
+                                                      runs=("pme_percent", "size")).reset_index()
+    if "pme_draw_low" in s:
+        d = s.groupby(["contact", "pressure_kpa"]).agg(pme_post_low_percent=("pme_draw_low", "min"),
+                                                        pme_post_high_percent=("pme_draw_high", "max")).reset_index()
+        agg = agg.merge(d, on=["contact", "pressure_kpa"], how="left")
+    write_csv_atomic(agg, out_csv)
+    pressures = sorted(s.pressure_kpa.unique())
+    fig, ax = plt.subplots(figsize=(9, 4.5))
+    w = 0.8 / len(contacts)
+    for k, c in enumerate(contacts):
+        a = agg[agg.contact == c].set_index("pressure_kpa").reindex(pressures)
+        x = np.arange(len(pressures)) + (k - (len(contacts) - 1) / 2) * w
+        ax.bar(x, a.pme_mean_percent, w * 0.9, color=CONTACT_COLOURS[c], label=c, alpha=0.85)
+        runs = s[s.contact == c]
+        for i, p in enumerate(pressures):
+            r = runs[runs.pressure_kpa == p]
+            ax.plot(np.full(len(r), x[i]), r.pme_percent, "k.", ms=4)
+            if "pme_draw_low" in r and r.pme_draw_low.notna().any():
+                ax.errorbar(x[i], a.pme_mean_percent.iloc[i],
+                            yerr=[[a.pme_mean_percent.iloc[i] - r.pme_draw_low.min()], [r.pme_draw_high.max() - a.pme_mean_percent.iloc[i]]],
+                            color="k", capsize=3, lw=1)
+    ax.axhline(0, color="k", lw=0.8)
+    ax.set_xticks(np.arange(len(pressures)), [f"{p:g}" for p in pressures])
+    ax.set_xlabel("shell pressure (kPa)")
+    ax.set_ylabel("drive-speed PME (%)  [+ = model too fast]")
+    ax.set_title("Fig. 13: drive speed error per pressure (bars: mean of runs; dots: runs; whiskers: friction posterior 95%)")
+    ax.legend(fontsize=8)
+    save(fig, out13)
+    fig, ax = plt.subplots(figsize=(6, 4))
+    per_run = s.groupby("contact").pme_percent
+    m = per_run.mean().reindex(contacts)
+    ax.bar(range(len(contacts)), m.values, color=[CONTACT_COLOURS[c] for c in contacts], alpha=0.85)
+    for i, c in enumerate(contacts):
+        r = s[s.contact == c]
+        ax.plot(np.full(len(r), i), r.pme_percent, "k.", ms=4)
+        if "pme_draw_low" in r and r.pme_draw_low.notna().any():
+            ax.errorbar(i, m[c], yerr=[[m[c] - r.pme_draw_low.mean()], [r.pme_draw_high.mean() - m[c]]], color="k", capsize=4)
+    ax.axhline(0, color="k", lw=0.8)
+    ax.set_xticks(range(len(contacts)), contacts)
+    ax.set_ylabel("drive-speed PME averaged over pressures (%)")
+    ax.set_title("Fig. 14: averaged drive speed error")
+    save(fig, out14)
+    lines = ["# Drive-speed point mean error (eq. 12), percent; + = model faster than the robot", "",
+             "| contact | pressure (kPa) | runs | mean PME | min | max | posterior 95% |", "|---|---|---|---|---|---|---|"]
+    for r in agg.itertuples():
+        post = (f"[{r.pme_post_low_percent:.1f}, {r.pme_post_high_percent:.1f}]"
+                if hasattr(r, "pme_post_low_percent") and np.isfinite(r.pme_post_low_percent) else "-")
+        lines.append(f"| {r.contact} | {r.pressure_kpa:g} | {r.runs} | {r.pme_mean_percent:.1f} | "
+                     f"{r.pme_min_percent:.1f} | {r.pme_max_percent:.1f} | {post} |")
+    lines += ["", "| contact | mean PME over all runs (%) |", "|---|---|"]
+    lines += [f"| {c} | {m[c]:.1f} |" for c in contacts]
+    write_text_atomic(out_md, "\n".join(lines) + "\n")

@@ -1,0 +1,52 @@
+# Campaign bookkeeping: which recordings exist (raw_data/MANIFEST.csv and, when present,
+# the authors' real logs), and the shell command that runs a package stage.
+import csv
+import os
+
+ROBOBALL = "roboball stage"
+RAW = config["raw_data"]
+
+
+def _manifest():
+    with open(os.path.join(RAW, "MANIFEST.csv"), newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    out = {}
+    for r in rows:
+        stem = os.path.splitext(os.path.basename(r["file"]))[0]
+        out[stem] = {"src": os.path.join(RAW, r["file"]), "kind": r["kind"],
+                     "pressure_kpa": r["pressure_kpa"] or ""}
+    return out
+
+
+REC = _manifest()
+
+_real = config["real_data"]
+REAL_ON = _real["enabled"] is True or (_real["enabled"] == "auto" and os.path.isdir(_real["path"]))
+if _real["enabled"] is True and not os.path.isdir(_real["path"]):
+    raise WorkflowError(f"real_data.path {_real['path']}: folder not found (set real_data.enabled: auto or false)")
+if REAL_ON:
+    REC["real_steer_stand"] = {"src": os.path.join(_real["path"], _real["steer_stand"]), "kind": "steer_stand",
+                               "pressure_kpa": ""}
+    REC["real_shell_rock"] = {"src": os.path.join(_real["path"], _real["shell_rock"]), "kind": "shell_rock",
+                              "pressure_kpa": ""}
+else:
+    print(f"roboball: real logs not found at {_real['path']}: the real-data part of the pipeline is skipped "
+          "(see README, 'Real recordings').")
+
+
+def stems(kind, real=False):
+    return sorted(s for s, r in REC.items() if r["kind"] == kind and s.startswith("real_") == real)
+
+
+SHELL = stems("shell_rock")
+RAMP = stems("ramp")
+CONTACTS = config["shell"]["contact_models"]
+RAMP_CONTACTS = config["ramp"]["contact_models"]
+F = config["shell"]["sweep_factors"]
+SWEEP = {}   # the control case is the hydroelastic shell simulation itself
+for f in F:
+    SWEEP[f"modulus_x{f:g}"] = (f, 1.0)
+    SWEEP[f"dissipation_x{f:g}"] = (1.0, f)
+    SWEEP[f"both_x{f:g}"] = (f, f)
+FRICTION_MODELS = [("steer", law) for law in config["friction"]["steer_laws"]] + \
+                  [("drive", law) for law in config["friction"]["drive_laws"]]

@@ -1,0 +1,29 @@
+# Stage 1: validate and normalise every recording, find its releases, QC plot; decay per release.
+
+rule ingest:
+    input:
+        src=lambda w: REC[w.stem]["src"],
+    output:
+        csv="results/ingest/{stem}.csv",
+        sidecar="results/ingest/{stem}.json",
+        releases="results/ingest/{stem}.releases.json",
+        qc=report("results/qc/{stem}.png", category="1 Ingest", caption="../report/qc.rst"),
+    params:
+        kind=lambda w: REC[w.stem]["kind"],
+        pressure=lambda w: REC[w.stem]["pressure_kpa"],
+    log: "results/logs/ingest/{stem}.log"
+    benchmark: "results/benchmarks/ingest/{stem}.tsv"
+    shell:
+        "{ROBOBALL} ingest --src {input.src} --out-csv {output.csv} --out-releases {output.releases} "
+        "--qc-png {output.qc} --kind {params.kind} --pressure-kpa '{params.pressure}' > {log} 2>&1"
+
+
+rule decay:
+    input:
+        csv="results/ingest/{stem}.csv",
+        releases="results/ingest/{stem}.releases.json",
+    output: "results/decay/{stem}.csv"
+    log: "results/logs/decay/{stem}.log"
+    benchmark: "results/benchmarks/decay/{stem}.tsv"
+    shell:
+        "{ROBOBALL} decay --recording {input.csv} --releases {input.releases} --out-csv {output} > {log} 2>&1"
