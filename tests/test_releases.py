@@ -118,6 +118,48 @@ def test_synthetic_hand_phases(case, seed):
     assert [r.t_release_s for r in rel] == pytest.approx([tr["t_release_s"] for tr in truth], abs=0.05)
 
 
+def _dry_friction_release(tau, A, d, omega):
+    """Released from rest at A with Coulomb friction only: each half swing, moving with
+    sign s, is a cosine about the equilibrium -s d; the body sticks once |x| <= d."""
+    out = np.empty_like(tau)
+    x0, t0, s = A, 0.0, -np.sign(A)
+    half = np.pi / omega
+    for i, ti in enumerate(tau):
+        while ti > t0 + half and abs(x0) > d:
+            x0 = -x0 - 2 * s * d  # end of a half swing about the equilibrium -s d
+            t0 += half
+            s = -s
+        if abs(x0) <= d:
+            out[i] = x0
+        else:
+            out[i] = -s * d + (x0 + s * d) * np.cos(omega * (ti - t0))
+    return out
+
+
+def test_strong_dry_friction_single_overshoot():
+    """Drive-stand-like releases: one overshoot past rest, then the body sticks off rest."""
+    rng = np.random.default_rng(11)
+    t = np.cumsum(rng.uniform(0.009, 0.011, 3200))
+    releases = [(3.0, 0.7), (13.0, -0.75), (23.0, 0.75)]
+    y = np.zeros_like(t)
+    level = 0.0
+    for k, (t_rel, A) in enumerate(releases):
+        t_move = t_rel - 1.5
+        seg = (t >= t_move) & (t < t_rel)
+        ramp = np.clip((t[seg] - t_move) / 0.8, 0, 1)
+        y[seg] = level + (A - level) * 0.5 * (1 - np.cos(np.pi * ramp))
+        t_next = releases[k + 1][0] - 1.5 if k + 1 < len(releases) else t[-1] + 1
+        seg = (t >= t_rel) & (t < t_next)
+        y[seg] = _dry_friction_release(t[seg] - t_rel, A, 0.2, 5.5)
+        level = y[seg][-1]
+    y = np.round((y + rng.normal(0, 0.0005, t.size)) / 0.001) * 0.001
+    rel = find_releases(t, y, "drive_stand")
+    assert [r.t_release_s for r in rel] == pytest.approx([r[0] for r in releases], abs=0.05)
+    for r, (_, A) in zip(rel, releases):
+        assert abs(r.y_rest) <= 0.2 + 0.01  # stuck within the friction band, not at 0
+        assert r.t_end_s < r.t_release_s + 2.0
+
+
 def test_no_release_in_rest_and_noise():
     rng = np.random.default_rng(5)
     t = np.cumsum(rng.uniform(0.010, 0.0125, 3000))

@@ -25,7 +25,8 @@ same code works for a 1-mrad-quantised pendulum log at 80 Hz and a 100 Hz shell 
    - the following motion crosses rest at least twice, with amplitudes not growing, its
      first half swing (from the end of the hold) lasts 0.5-2 half periods and overshoots
      rest by at least 0.4x the decay ratio of the next half swing (a free oscillation,
-     not a hand lowering the body into a hand-held jiggle).
+     not a hand lowering the body into a hand-held jiggle); or, with strong dry friction,
+     it overshoots rest once by at least 10% of the offset and then stops.
    A record that starts slow and away from rest (a simulation started at the release
    state) has its release at the first sample.
 4. The free response ends at the last turning point before the amplitude grows again (a
@@ -302,6 +303,29 @@ def _rest_estimate(ext_vals: np.ndarray) -> float:
     return float(np.median((e[1:] + r * e[:-1]) / (1.0 + r)))
 
 
+def _settled_level(sig: PreparedSignal, k_from: int, half_period: float, lo: float, hi: float) -> float | None:
+    """Level at which the body comes to rest after grid index `k_from`: the mean of the
+    first still stretch (0.5 s with a spread of at most 3 hysteresis steps, averaged over up
+    to 3 s) that starts within 1.5 half periods, if that level lies in [lo, hi]; else None."""
+    ys, h = sig.ys, sig.hysteresis
+    settle_n = max(int(round(0.5 / sig.dt)), 1)
+    tail = ys[k_from:k_from + int(1.5 * half_period / sig.dt) + 2 * settle_n + int(3.0 / sig.dt)]
+    if len(tail) <= settle_n:
+        return None
+    half_w = settle_n // 2
+    spread = (maximum_filter1d(tail, settle_n, mode="nearest")
+              - minimum_filter1d(tail, settle_n, mode="nearest"))[half_w:len(tail) - half_w]
+    still = np.nonzero(spread <= 3 * h)[0]
+    if not still.size or still[0] * sig.dt > 1.5 * half_period:
+        return None
+    i0 = int(still[0])
+    moving = np.nonzero(spread[i0:] > 3 * h)[0]
+    i1 = i0 + (int(moving[0]) if moving.size else len(spread) - i0) + settle_n - 1
+    i1 = min(i1, i0 + int(3.0 / sig.dt), len(tail))
+    level = float(np.mean(tail[i0:i1]))
+    return level if lo <= level <= hi else None
+
+
 def _hold_around(sig: PreparedSignal, k_from: int, k_to: int, k_floor: int, v_thr: float) -> tuple[int, int]:
     """The hold that ends where the body starts its swing towards the turning point at
     `k_to`: returns grid indices (s, c) of the last stretch with |velocity| <= v_thr before
@@ -309,10 +333,12 @@ def _hold_around(sig: PreparedSignal, k_from: int, k_to: int, k_floor: int, v_th
     vs = sig.vs
     k_fast = k_from + int(np.argmax(np.abs(vs[k_from:k_to + 1])))
     slow = np.nonzero(np.abs(vs[k_from:k_fast + 1]) <= v_thr)[0]
-    c = k_from + int(slow[-1]) if slow.size else k_from
+    if not slow.size:
+        return k_from, k_from  # never slow: no hold
+    c = k_from + int(slow[-1])
     fast_before = np.nonzero(np.abs(vs[k_floor:c + 1]) > v_thr)[0]
     s = k_floor + (int(fast_before[-1]) + 1 if fast_before.size else 0)
-    return s, c
+    return min(s, c), c
 
 
 def _velocity_threshold(sig: PreparedSignal, amplitude: float, omega: float, frac: float) -> float:
@@ -370,65 +396,64 @@ def _oscillation_releases(sig: PreparedSignal, kind: str, min_hold_s: float, min
                 break  # the amplitude grows: a hand moves the body
             if p2p < 1.2 * h:
                 break  # the swings have sunk into the noise
-            if m + 1 < n_ext and _is_hold(sig, ext, m, omega=math.pi / ref, amplitude=0.5 * p2p,
-                                          min_hold_s=min_hold_s, hold_speed=hold_speed):
-                break  # turning point m is held: the next hold; the free response ended before
+            if _is_hold(sig, ext, m, omega=math.pi / ref, amplitude=0.5 * p2p,
+                        min_hold_s=min_hold_s, hold_speed=hold_speed):
+                break  # turning point m is held (a hand, or the body has stopped): the free
+                # response ended before it
             hp_list.append(hp)
             vals.append(ys[ext[m]])
             last = m
             m += 1
-        if last < j + 2:
-            j += 1
-            continue
         vals_a = np.asarray(vals)
-        half_period = float(np.median(hp_list[1:]))
-        omega = math.pi / half_period
-        # Final rest: the settled signal after the last turning point if it settles there,
-        # else extrapolated from the decay of the last turning points.
+        single = last == j + 1
+        if single:
+            # One overshoot, then the body stops (strong dry friction, as in the drive
+            # stand): a release only if it settles soon after that turning point, between it
+            # and the hold.
+            half_period = float(hp_list[0])
+            rest = _settled_level(sig, k1, half_period, min(Y, vals[1]) + h, max(Y, vals[1]) - h)
+            if rest is None:
+                j += 1
+                continue
+        else:
+            half_period = float(np.median(hp_list[1:]))
+            # Final rest: the settled signal after the last turning point if it settles
+            # there (between its last two turning points, or at the last one if dry friction
+            # stops it), else extrapolated from the decay of the turning points.
+            rest = _settled_level(sig, ext[last], half_period,
+                                  min(vals[-1], vals[-2]) - 3 * h, max(vals[-1], vals[-2]) + 3 * h)
+            if rest is None:
+                rest = _rest_estimate(vals_a[1:]) if len(vals_a) > 3 else _rest_estimate(vals_a)
         k_last = ext[last]
         k_next = ext[last + 1] if last + 1 < n_ext else len(ys) - 1
-        settle_n = max(int(round(0.5 / sig.dt)), 1)
-        tail = ys[k_last:k_last + int(1.5 * half_period / sig.dt) + 2 * settle_n]
-        rest = None
-        if len(tail) > settle_n:
-            # First 0.5 s stretch after the last turning point in which the body is still.
-            half_w = settle_n // 2
-            spread = (maximum_filter1d(tail, settle_n, mode="nearest")
-                      - minimum_filter1d(tail, settle_n, mode="nearest"))[half_w:len(tail) - half_w]
-            still = np.nonzero(spread <= 3 * h)[0]
-            if still.size and still[0] * sig.dt <= 1.5 * half_period:
-                i0 = int(still[0])
-                # Average over the whole still stretch (up to 3 s) for a precise level.
-                moving = np.nonzero(spread[i0:] > 3 * h)[0]
-                i1 = i0 + (int(moving[0]) if moving.size else len(spread) - i0) + settle_n - 1
-                i1 = min(i1, i0 + int(3.0 / sig.dt), len(tail))
-                level = float(np.mean(tail[i0:i1]))
-                # A settling body comes to rest between its last two turning points (at the
-                # last one if dry friction stops it); a hand hold elsewhere is not rest.
-                lo = min(vals[-1], vals[-2]) - 3 * h
-                hi = max(vals[-1], vals[-2]) + 3 * h
-                if lo <= level <= hi:
-                    rest = level
-        if rest is None:
-            rest = _rest_estimate(vals_a[1:]) if len(vals_a) > 3 else _rest_estimate(vals_a)
+        omega = math.pi / half_period
         offset = Y - rest
         dev = vals_a - rest
         ok = abs(offset) >= max(min_offset_sigma * sig.sigma, 4 * h)
         ok = ok and dev[1] * offset < 0 and abs(dev[1]) < 1.05 * abs(offset) + h
-        ok = ok and dev[2] * offset > 0
-        # The first half swing loses no more than a damped oscillation does later on: a
-        # hand that lowers the body into a hand-held jiggle overshoots far less.
-        ok = ok and abs(dev[1] / offset) >= 0.4 * abs(dev[2] / dev[1])
+        if single:
+            ok = ok and abs(dev[1]) >= 0.1 * abs(offset)  # a real overshoot, not a hand placing it
+        else:
+            ok = ok and dev[2] * offset > 0
+            # The first half swing loses no more than a damped oscillation does later on: a
+            # hand that lowers the body into a hand-held jiggle overshoots far less.
+            ok = ok and abs(dev[1] / offset) >= 0.4 * abs(dev[2] / dev[1])
         if ok:
             v_thr = _velocity_threshold(sig, offset, omega, hold_speed)
             s, c = _hold_around(sig, k0, k1, floor_index, v_thr)
+            if single:
+                # The only half period available is the first swing itself, from the hold's end.
+                half_period = max(float(tu[k1] - tu[c]), 2 * sig.dt)
+                omega = math.pi / half_period
+                v_thr = _velocity_threshold(sig, offset, omega, hold_speed)
+                s, c = _hold_around(sig, k0, k1, floor_index, v_thr)
             # Held means slow AND in place: no more than 5% of the offset (plus noise) away
             # from where it is let go (a slow hand movement is slow but not in place).
             away = np.nonzero(np.abs(ys[s:c + 1] - ys[c]) > 0.05 * abs(offset) + 3 * sig.sigma)[0]
             if away.size:
                 s = s + int(away[-1]) + 1
             # From the end of the hold, the first half swing lasts about a half period.
-            ok = 0.5 <= (tu[k1] - tu[c]) / half_period <= 2.0
+            ok = single or 0.5 <= (tu[k1] - tu[c]) / half_period <= 2.0
             held_long = _long_enough(tu[c] - tu[s], v_thr, offset, omega, min_hold_s)
             # A record that starts at rest away from rest (a simulation started at the
             # release state, or a log started during the hold) begins with its release.
