@@ -9,7 +9,7 @@ validate(config, "configs/schema/config.schema.yaml")
 include: "workflow/rules/common.smk"
 include: "workflow/rules/ingest.smk"
 include: "workflow/rules/shell.smk"
-include: "workflow/rules/friction.smk"
+# friction.smk: added with the friction fits
 include: "workflow/rules/ramp.smk"
 include: "workflow/rules/figures.smk"
 

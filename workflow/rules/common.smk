@@ -2,8 +2,10 @@
 # the authors' real logs), and the shell command that runs a package stage.
 import csv
 import os
+import sys
 
-ROBOBALL = "roboball stage"
+# The roboball of the environment running Snakemake (the project's .venv).
+ROBOBALL = os.path.join(os.path.dirname(sys.executable), "roboball") + " stage"
 RAW = config["raw_data"]
 
 
