@@ -245,3 +245,20 @@ def test_property_find_releases_never_crashes(n, seed, kind, scale, shape):
     for r in rel:
         assert np.isfinite(r.t_release_s) and r.t_release_s <= r.t_end_s + 1e-9
         assert 0 <= r.i_release <= r.i_end < n
+
+
+def test_release_json_round_trip():
+    """Releases travel between pipeline stages as JSON: NaN (no half period for a ramp)
+    becomes null and comes back as NaN."""
+    import json
+
+    from roboball.atomic import json_dumps_stable
+    from roboball.releases import Release
+
+    t = np.arange(0, 5, 0.01)
+    (r,) = find_releases(t, np.where(t > 1, 2 * (t - 1), 0.0), "ramp")
+    assert r.t_release_s == pytest.approx(1.0, abs=0.01)
+    assert np.isnan(r.half_period_s)
+    back = Release(**json.loads(json_dumps_stable(r.as_dict())))
+    assert np.isnan(back.half_period_s)
+    assert back.t_release_s == r.t_release_s and back.i_release == r.i_release and back.kind == "ramp"

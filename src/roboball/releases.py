@@ -92,8 +92,16 @@ class Release:
     noise: float = float("nan")
     kind: str = ""
 
+    def __post_init__(self):
+        # JSON has no NaN: unknown numbers travel as null and come back as NaN.
+        for name in ("y_release", "y_rest", "half_period_s", "noise"):
+            if getattr(self, name) is None:
+                setattr(self, name, float("nan"))
+
     def as_dict(self) -> dict:
-        return asdict(self)
+        """Plain dict for JSON: unknown numbers (NaN) become None; Release(**d) restores them."""
+        d = asdict(self)
+        return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in d.items()}
 
 
 @dataclass
@@ -136,7 +144,10 @@ def _quantum(y: np.ndarray) -> float:
         return 0.0
     # On a grid every step is (nearly) an integer multiple of q.
     ratio = nz / q
-    if np.mean(np.abs(ratio - np.round(ratio)) < 0.05) > 0.95:
+    multiples = np.unique(np.round(ratio))
+    # On a grid every step is (nearly) an integer multiple of q, and a moving signal takes
+    # steps of several sizes (a uniformly sampled straight line takes only one).
+    if np.mean(np.abs(ratio - np.round(ratio)) < 0.05) > 0.95 and len(multiples) >= 3:
         return q
     return 0.0
 
