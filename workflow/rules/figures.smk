@@ -51,3 +51,24 @@ rule fig13_14:
     shell:
         "{ROBOBALL} fig13-14 --summary {input} --out13 {output.fig13} --out14 {output.fig14} "
         "--out-csv {output.csv} --out-md {output.md} > {log} 2>&1"
+
+
+REPLAYS = {"steer_stand": ("point", 0.8), "drive_stand": ("point", 0.6), "shell_rock": ("injected", -0.3),
+           "ramp": ("hydroelastic", 0.0)}
+
+
+rule replay:
+    input: regression="results/identify/shell_regression.csv"
+    output: report("results/replays/{scenario}.html", category="5 Replays", caption="../report/replay.rst")
+    params:
+        contact=lambda w: REPLAYS[w.scenario][0],
+        release=lambda w: REPLAYS[w.scenario][1],
+        d=config["shell"]["carried_forward"]["dissipation_scale"],
+    log: "results/logs/replay/{scenario}.log"
+    benchmark: "results/benchmarks/replay/{scenario}.tsv"
+    shell:
+        "{ROBOBALL} replay --kind {wildcards.scenario} --contact {params.contact} --regression {input.regression} "
+        "--release {params.release} --dissipation-scale {params.d} --out-html {output} > {log} 2>&1"
+
+
+FIGURES += [f"results/replays/{s}.html" for s in REPLAYS]
