@@ -125,13 +125,17 @@ def fig11(sweep: str, points: str, out_png: str, out_table: str, out_md: str, ca
     write_csv_atomic(g, out_table)
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
     cases = sorted(g.case.unique(), key=lambda c: (c != "control", c))
-    for k, case in enumerate(cases):
+    others = [c for c in cases if c != "control"]
+    colours = {c: plt.cm.tab10(i) for i, c in enumerate(others)}
+    colours["control"] = "k"
+    w = 2.4 / max(len(others), 1)
+    for case in cases:
         s = g[g.case == case]
-        style = dict(lw=2.5, color="k") if case == "control" else dict(lw=1.2)
-        axes[0].plot(s.pressure_kpa, s.zeta, "o-", label=case, **style)
+        axes[0].plot(s.pressure_kpa, s.zeta, "o-", label=case, color=colours[case], lw=2.5 if case == "control" else 1.2)
         if case != "control":
-            w = 0.8 / (len(cases) - 1)
-            axes[1].bar(s.pressure_kpa.to_numpy() + (k - len(cases) / 2) * w, s.error_change_vs_control_percent, w * 0.95, label=case)
+            k = others.index(case)
+            axes[1].bar(s.pressure_kpa.to_numpy() + (k - (len(others) - 1) / 2) * w, s.error_change_vs_control_percent,
+                        w * 0.9, label=case, color=colours[case])
     axes[0].plot(meas.index, meas.values, "kx", ms=9, mew=2, label="measured (mean)")
     axes[0].set_xlabel("pressure (kPa)")
     axes[0].set_ylabel("simulated damping ratio $\\zeta$ (-)")
