@@ -3,8 +3,17 @@ PF = "paper_figures"
 FIGURES = [
     f"{PF}/fig10_shell_dynamics.png", f"{PF}/fig11_hydro_sensitivity.png",
     f"{PF}/fig13_ramp_pme.png", f"{PF}/fig14_ramp_pme_mean.png",
-    f"{PF}/table_pme.csv", f"{PF}/table_pme.md", f"{PF}/table_sweep.md",
+    f"{PF}/table_pme.csv", f"{PF}/table_pme.md", f"{PF}/table_sweep.md", f"{PF}/table2_robot.md",
 ]
+
+
+rule table2:
+    input: "configs/robot.yaml"
+    output:
+        csv=f"{PF}/table2_robot.csv",
+        md=f"{PF}/table2_robot.md",
+    log: "results/logs/table2.log"
+    shell: "{ROBOBALL} table2 --robot-yaml {input} --out-csv {output.csv} --out-md {output.md} > {log} 2>&1"
 
 
 rule fig10:

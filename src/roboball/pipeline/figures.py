@@ -15,7 +15,7 @@ import pandas as pd  # noqa: E402
 
 from ..atomic import write_csv_atomic, write_text_atomic  # noqa: E402
 
-STAGES = ("fig10", "fig11", "fig13_14")
+STAGES = ("fig10", "fig11", "fig13_14", "table2")
 CONTACT_COLOURS = {"point": "#7f7f7f", "injected": "#1f77b4", "hydroelastic": "#d62728", "diagnosed": "#2ca02c"}
 plt.rcParams.update({"font.size": 10, "axes.grid": True, "grid.alpha": 0.3, "savefig.dpi": 150,
                      "pdf.fonttype": 42, "svg.hashsalt": "roboball", "figure.constrained_layout.use": True})
@@ -221,3 +221,31 @@ def fig13_14(summary: str, out13: str, out14: str, out_csv: str, out_md: str) ->
     lines += ["", "| contact | mean PME over all runs (%) |", "|---|---|"]
     lines += [f"| {c} | {m[c]:.1f} |" for c in contacts]
     write_text_atomic(out_md, "\n".join(lines) + "\n")
+
+
+def table2(out_csv: str, out_md: str, robot_yaml: str = "") -> None:
+    """Table II (measured numerical values) from configs/robot.yaml, with the eq. 4-5 numbers
+    derived from them."""
+    from ..config import load_robot
+
+    r = load_robot(robot_yaml or None)
+    L = r.links
+    rows = [
+        ("link mass m_pc", L["pitch_center"].mass_kg, "kg"), ("link mass m_p", L["pendulum"].mass_kg, "kg"),
+        ("link mass m_s", L["pipe_assembly"].mass_kg, "kg"),
+        ("inertia I_pc (xx)", L["pitch_center"].inertia_kg_m2[0], "kg m^2"),
+        ("inertia I_p (xx)", L["pendulum"].inertia_kg_m2[0], "kg m^2"),
+        ("inertia I_s (xx)", L["pipe_assembly"].inertia_kg_m2[0], "kg m^2"),
+        ("distance r_pc", -L["pitch_center"].com_m[2], "m"), ("distance r_p", -L["pendulum"].com_m[2], "m"),
+        ("outer radius R", r.radius, "m"), ("ramp angle", r.ramp_angle_deg, "deg"),
+        ("M_eq (eq. 4)", r.M_eq, "kg m^2"), ("K_eq (eq. 4)", r.K_eq, "N m/rad"),
+        ("omega_n (eq. 5)", r.omega_n_eq5, "rad/s"), ("shell rest angle", r.shell_rest_angle, "rad"),
+        ("steer stand omega", r.steer_stand_terms["omega_n"], "rad/s"),
+        ("steer stand rest angle", r.steer_stand_terms["rest_angle"], "rad"),
+    ]
+    df = pd.DataFrame(rows, columns=["parameter", "value", "unit"])
+    write_csv_atomic(df, out_csv)
+    md = ["# Table II: measured numerical values (configs/robot.yaml) and derived eq. 4-5 numbers", "",
+          "| parameter | value | unit |", "|---|---|---|"]
+    md += [f"| {p} | {v:.5g} | {u} |" for p, v, u in rows]
+    write_text_atomic(out_md, "\n".join(md) + "\n")
