@@ -14,7 +14,14 @@ STAGES = ("ingest", "decay", "shell_regression")
 
 
 def _float_or_none(x):
-    return None if x in (None, "", "None", "null") else float(x)
+    """A flag value as float, or None when it is empty or not a number ("", "None", "null",
+    and "nan", which is how the campaign MANIFEST writes a pressure that does not apply)."""
+    if x is None or str(x).strip().lower() in ("", "none", "null", "nan"):
+        return None
+    try:
+        return float(x)
+    except ValueError:
+        raise RoboballError(f"--pressure-kpa {x!r}: not a number; give the gauge pressure in kPa or leave it empty")
 
 
 def ingest(src: str, out_csv: str, out_releases: str, qc_png: str, kind: str = "", pressure_kpa: str = "") -> None:
@@ -22,17 +29,18 @@ def ingest(src: str, out_csv: str, out_releases: str, qc_png: str, kind: str = "
     write the normalised recording, a releases JSON and a QC plot."""
     from ..importers import read_any
     from ..recording import normalise, write_recording
-    from ..releases import recording_releases
 
     flags = {}
     if kind:
         flags["kind"] = kind
-    if _float_or_none(pressure_kpa) is not None:
-        flags["pressure_kpa"] = float(pressure_kpa)
+    pressure = _float_or_none(pressure_kpa)
+    if pressure is not None:
+        flags["pressure_kpa"] = pressure
     rec = normalise(read_any(src, **flags))
-    rels = recording_releases(rec)
-    if not rels:
-        raise RoboballError(f"{src}: no release found (no hold-then-let-go in {rec.main_signal()})")
+    # Imported only once the file is known to be good, so bad input fails fast (scipy is slow to load).
+    from ..releases import require_releases
+
+    rels = require_releases(rec)
     write_recording(out_csv, rec)
     write_json_atomic(out_releases, {"source": str(src), "kind": rec.kind, "pressure_kpa": rec.pressure_kpa,
                                      "signal": rec.main_signal(), "releases": [r.as_dict() for r in rels]})
