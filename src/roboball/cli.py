@@ -14,6 +14,14 @@ from .errors import RoboballError
 FRICTION_CHOICES = ("none", "viscous", "coulomb_viscous", "majd")
 
 
+class OneLineArgumentParser(argparse.ArgumentParser):
+    """argparse, but a usage mistake is reported like every other user error: one line
+    naming the problem and where to look, exit code 2 (no multi-line usage dump)."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {' '.join(message.split())}; see '{self.prog} --help'\n")
+
+
 def _positive(name):
     def conv(text):
         try:
@@ -85,7 +93,7 @@ def cmd_urdf(args) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="roboball", description=__doc__.splitlines()[0])
+    p = OneLineArgumentParser(prog="roboball", description=__doc__.splitlines()[0])
     sub = p.add_subparsers(dest="command", required=True)
 
     s = sub.add_parser("simulate", help="simulate one experiment in Drake and write a recording")
@@ -146,10 +154,21 @@ def main(argv=None) -> int:
     except RoboballError as exc:
         print(f"roboball: error: {exc}", file=sys.stderr)
         return exc.exit_code
+    except OSError as exc:
+        # A missing or unreadable input/output file named on the command line is the user's to
+        # fix; OSErrors that name no file are bugs and keep their traceback.
+        if exc.filename is None:
+            raise
+        print(f"roboball: error: {exc.filename}: {exc.strerror or exc}", file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
         print("roboball: interrupted", file=sys.stderr)
         return 130
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    # `python -m roboball.cli`: run the canonical module's main, where plugins register their
+    # subcommands (this file is a second module object named __main__).
+    from roboball.cli import main as _main
+
+    sys.exit(_main())

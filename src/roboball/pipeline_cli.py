@@ -9,16 +9,20 @@ import argparse
 import inspect
 import sys
 
-from .cli import register_command
+from .cli import OneLineArgumentParser, register_command
 
 STAGE_MODULES = ("roboball.pipeline.ident", "roboball.pipeline.simulation", "roboball.pipeline.figures",
                  "roboball.pipeline.report", "roboball.pipeline.friction")
 
 
-def _stages() -> dict:
+def _stages(wanted: str | None = None) -> dict:
+    """Stage name -> function.  With `wanted`, stop at the first module that defines it, so a
+    stage does not pay for importing the others (matplotlib, Drake)."""
     import importlib
     out = {}
     for name in STAGE_MODULES:
+        if wanted is not None and wanted in out:
+            break
         try:
             mod = importlib.import_module(name)
         except ModuleNotFoundError as exc:
@@ -31,12 +35,12 @@ def _stages() -> dict:
 
 
 def _run_stage(args) -> int:
-    stages = _stages()
+    stages = _stages(args.stage)
     fn = stages.get(args.stage)
     if fn is None:
         from .errors import RoboballError
         raise RoboballError(f"unknown stage '{args.stage}' (stages: {', '.join(sorted(stages))})")
-    p = argparse.ArgumentParser(prog=f"roboball stage {args.stage}", description=fn.__doc__)
+    p = OneLineArgumentParser(prog=f"roboball stage {args.stage}", description=fn.__doc__)
     for name, par in inspect.signature(fn).parameters.items():
         ann = str(par.annotation)
         kw = {"required": par.default is inspect.Parameter.empty, "dest": name}
