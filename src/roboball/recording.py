@@ -434,7 +434,9 @@ def check_meta(
 
     p = meta.get("pressure_kpa")
     if p is None:
-        if kind in PRESSURE_REQUIRED and not allow_unknown_pressure:
+        # An imported native log whose pressure was never logged says so explicitly.
+        unknown_ok = allow_unknown_pressure or meta.get("pressure_source") == "unknown"
+        if kind in PRESSURE_REQUIRED and not unknown_ok:
             raise _err(
                 file, where("pressure_kpa"), f"missing: kind {kind} needs the shell gauge pressure",
                 "add pressure_kpa to the sidecar or pass --pressure-kpa",
