@@ -15,6 +15,8 @@ Scenarios (one builder each, all through `roboball.sim.plant.build`):
 from __future__ import annotations
 
 import math
+import os
+import time
 
 import numpy as np
 import pandas as pd
@@ -76,10 +78,27 @@ def signals_from_states(built: Built, x: np.ndarray) -> dict:
     return out
 
 
+def describe(spec: SimSpec, t: float | None = None) -> str:
+    """The scenario and the parameters that define it, for one-line failure messages."""
+    parts = [f"scenario {spec.kind}", f"contact {spec.contact}", f"friction {spec.friction}"]
+    if spec.friction_params:
+        parts.append(f"friction params {spec.friction_params}")
+    parts += [f"pressure {spec.pressure_kpa} kPa", f"dt {spec.dt} s"]
+    sp = spec.shell
+    for name in ("zeta", "omega_n", "hydro_modulus", "hydro_dissipation"):
+        if getattr(sp, name) is not None:
+            parts.append(f"{name} {getattr(sp, name):g}")
+    for name in ("modulus_scale", "dissipation_scale"):
+        if getattr(sp, name) != 1.0:
+            parts.append(f"{name} {getattr(sp, name):g}")
+    if t is not None:
+        parts.append(f"t = {t:.3f} s")
+    return ", ".join(parts)
+
+
 def _check_state(built: Built, x: np.ndarray, t: float) -> None:
     spec = built.spec
-    where = (f"scenario {spec.kind}, contact {spec.contact}, friction {spec.friction}, "
-             f"pressure {spec.pressure_kpa} kPa, dt {spec.dt} s, t = {t:.3f} s")
+    where = describe(spec, t)
     if not np.all(np.isfinite(x)):
         raise SimulationError(f"simulation produced NaN/inf ({where})")
     lay = built.layout
@@ -94,15 +113,33 @@ def _check_state(built: Built, x: np.ndarray, t: float) -> None:
             raise SimulationError(f"shell penetrated the ground by {built.robot.radius - height:.3f} m ({where})")
 
 
+def _max_wall_s(max_wall_s: float | None) -> float | None:
+    """The wall-clock budget of one simulate call: the argument, else $ROBOBALL_SIM_MAX_WALL_S."""
+    if max_wall_s is not None:
+        return float(max_wall_s)
+    env = os.environ.get("ROBOBALL_SIM_MAX_WALL_S", "").strip()
+    if not env:
+        return None
+    try:
+        value = float(env)
+    except ValueError:
+        raise SimulationError(f"ROBOBALL_SIM_MAX_WALL_S={env!r}: not a number of seconds")
+    return value if value > 0 else None
+
+
 def simulate(spec: SimSpec, release: float, duration: float, sample_rate_hz: float = 100.0,
              steer0: float = 0.0, chunk_s: float = 0.5, built: Built | None = None,
-             return_states: bool = False):
+             return_states: bool = False, max_wall_s: float | None = None):
     """Run `spec` from rest at `release` for `duration` s; return a recording DataFrame.
 
     The state is checked between chunks of `chunk_s` for NaN, blow-up and deep penetration; a
-    failure raises SimulationError naming the scenario and parameters.  With `return_states`
-    the logged plant states (n_x by N) come back too: (df, states).
+    failure raises SimulationError naming the scenario and parameters.  A stuck run (a contact
+    solver crawling through a near-singular state) is caught by a wall-clock budget:
+    `max_wall_s` (or the environment variable ROBOBALL_SIM_MAX_WALL_S; default none), checked
+    between chunks.  With `return_states` the logged plant states (n_x by N) come back too:
+    (df, states).
     """
+    budget = _max_wall_s(max_wall_s)
     if built is None:
         built = build(spec, sample_period=1.0 / sample_rate_hz)
     sim = Simulator(built.diagram)
@@ -111,14 +148,20 @@ def simulate(spec: SimSpec, release: float, duration: float, sample_rate_hz: flo
     sim.Initialize()
     pctx = built.plant.GetMyContextFromRoot(ctx)
     t = 0.0
+    start = time.monotonic()
     try:
         while t < duration - 1e-12:
             t = min(duration, t + chunk_s)
             sim.AdvanceTo(t)
             _check_state(built, built.plant.GetPositionsAndVelocities(pctx), t)
+            wall = time.monotonic() - start
+            if budget is not None and wall > budget and t < duration - 1e-12:
+                raise SimulationError(
+                    f"simulation stuck: {wall:.1f} s of wall time for {t:.3f} of {duration:g} s simulated, "
+                    f"over the budget of {budget:g} s ({describe(spec, t)}); check the parameters or "
+                    "raise ROBOBALL_SIM_MAX_WALL_S")
     except RuntimeError as exc:
-        raise SimulationError(f"Drake failed in scenario {spec.kind} ({spec.contact}, "
-                              f"friction {spec.friction}) at t = {ctx.get_time():.3f} s: "
+        raise SimulationError(f"Drake failed ({describe(spec, ctx.get_time())}): "
                               f"{str(exc).splitlines()[0]}")
     log = built.logger.FindLog(ctx)
     times = log.sample_times()
