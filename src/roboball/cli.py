@@ -44,6 +44,8 @@ def _number(name):
 
 
 def cmd_simulate(args) -> int:
+    from .checks import load_checked_robot
+    from .config import ROBOT_YAML
     from .physics import shell as shell_laws
     from .recording import write_recording
     from .sim.plant import ShellParams, SimSpec
@@ -55,6 +57,7 @@ def cmd_simulate(args) -> int:
         raise RoboballError(f"--pressure-kpa is required for {args.kind} with contact '{args.contact}'")
     if args.pressure_kpa is not None and not (0 < args.pressure_kpa <= 500):
         raise RoboballError(f"--pressure-kpa {args.pressure_kpa}: must be in (0, 500] kPa gauge")
+    robot = load_checked_robot(ROBOT_YAML)   # schema + physics, before anything runs
     shell = ShellParams(zeta=args.zeta, omega_n=args.omega_n, hydro_modulus=args.hydro_modulus,
                         hydro_dissipation=args.hydro_dissipation)
     if args.contact in ("injected", "hydroelastic") and (args.zeta is None or args.omega_n is None) \
@@ -63,19 +66,28 @@ def cmd_simulate(args) -> int:
                             "(from the pipeline's shell regression, results/identify/shell_regression.csv)")
     friction = {"steer": args.friction_steer or args.friction, "drive": args.friction_drive or args.friction}
     spec = SimSpec(kind=args.kind, contact=args.contact, friction=friction, pressure_kpa=args.pressure_kpa,
-                   shell=shell, dt=args.dt)
+                   shell=shell, dt=args.dt, robot=robot)
     try:
-        df = simulate(spec, args.release, args.duration, sample_rate_hz=args.sample_rate_hz)
+        df = simulate(spec, args.release, args.duration, sample_rate_hz=args.sample_rate_hz,
+                      max_wall_s=args.max_wall_s)
     except ValueError as exc:
         raise RoboballError(str(exc))
     meta = {"kind": args.kind, "pressure_kpa": args.pressure_kpa, "source": "simulation",
             "simulation": {"contact": args.contact, "friction": friction, "dt_s": args.dt,
                            "release": args.release, "zeta": args.zeta, "omega_n_rad_s": args.omega_n}}
     if args.kind == "ramp":
-        from .config import load_robot
-        meta["ramp_angle_deg"] = load_robot().ramp_angle_deg
+        meta["ramp_angle_deg"] = robot.ramp_angle_deg
     write_recording(args.out, df, meta)
     print(f"wrote {args.out} ({len(df)} samples, {args.duration:g} s of {args.kind}, contact {args.contact})")
+    return 0
+
+
+def cmd_check_config(args) -> int:
+    from .checks import check_config_dir
+    from .config import CONFIG_DIR
+
+    for path in check_config_dir(args.config_dir or CONFIG_DIR):
+        print(f"ok {path}")
     return 0
 
 
@@ -113,8 +125,14 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--duration", type=_positive("--duration"), default=10.0)
     s.add_argument("--dt", type=_positive("--dt"), default=1e-3)
     s.add_argument("--sample-rate-hz", type=_positive("--sample-rate-hz"), default=100.0)
+    s.add_argument("--max-wall-s", type=_positive("--max-wall-s"), default=None,
+                   help="give up (stuck integrator) after this much wall time; default $ROBOBALL_SIM_MAX_WALL_S or none")
     s.add_argument("--out", required=True, type=Path)
     s.set_defaults(func=cmd_simulate)
+
+    c = sub.add_parser("check-config", help="validate configs/*.yaml against their schemas and the robot's physics")
+    c.add_argument("--config-dir", type=Path, default=None, help="default: $ROBOBALL_CONFIG_DIR or the repo's configs/")
+    c.set_defaults(func=cmd_check_config)
 
     u = sub.add_parser("urdf", help="print (or write) the URDF generated from configs/robot.yaml")
     u.add_argument("--robot", default=None, help="robot facts YAML (default configs/robot.yaml)")
