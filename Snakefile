@@ -6,6 +6,17 @@ from snakemake.utils import validate
 configfile: "configs/config.yaml"
 validate(config, "configs/schema/config.schema.yaml")
 
+# The robot facts (and every other configs/*.yaml with a schema, e.g. the friction priors) are
+# checked before any job runs; every stage then reads this workflow's configs/ folder.
+import os
+os.environ.setdefault("ROBOBALL_CONFIG_DIR", os.path.abspath("configs"))
+from roboball.checks import check_config_dir
+from roboball.errors import RoboballError
+try:
+    check_config_dir(os.environ["ROBOBALL_CONFIG_DIR"], exclude=("config.yaml",))
+except RoboballError as exc:
+    raise WorkflowError(str(exc))
+
 include: "workflow/rules/common.smk"
 include: "workflow/rules/ingest.smk"
 include: "workflow/rules/shell.smk"
