@@ -194,7 +194,9 @@ def fig13_14(summary: str, out13: str, out14: str, out_csv: str, out_md: str) ->
     ax.set_xticks(np.arange(len(pressures)), [f"{p:g}" for p in pressures])
     ax.set_xlabel("shell pressure (kPa)")
     ax.set_ylabel("drive-speed PME (%)  [+ = model too fast]")
-    ax.set_title("Fig. 13: drive speed error per pressure (bars: mean of runs; dots: runs; whiskers: friction posterior 95%)")
+    ax.set_title("Fig. 13: drive-speed error per pressure")
+    ax.text(0.01, 0.98, "bars: mean of runs   dots: runs   whiskers: 95% over friction-posterior draws",
+            transform=ax.transAxes, va="top", fontsize=8, color="0.3")
     ax.legend(fontsize=8)
     save(fig, out13)
     fig, ax = plt.subplots(figsize=(6, 4))
