@@ -18,9 +18,13 @@ $(STAMP): pyproject.toml requirements.lock
 	$(BIN)/python -m pip install -q --no-deps -e .
 	touch $(STAMP)
 
-# Regenerate every figure and table in paper_figures/ from raw_data/.
+# Regenerate every figure and table in paper_figures/ from raw_data/ (or only SNAKEMAKE_TARGETS,
+# e.g. make figures SNAKEMAKE_TARGETS=results/identify/shell_regression.csv).  After an
+# interrupted run (killed, power cut) roboball.runlock clears Snakemake's stale lock and
+# --rerun-incomplete redoes the jobs that were cut short, so rerunning `make figures` just works.
+SNAKEMAKE_TARGETS ?=
 figures: $(STAMP)
-	$(BIN)/snakemake --cores $(CORES) --rerun-triggers mtime input params code
+	$(BIN)/python -m roboball.runlock $(BIN)/snakemake $(SNAKEMAKE_TARGETS) --cores $(CORES) --rerun-incomplete --rerun-triggers mtime input params code
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q
