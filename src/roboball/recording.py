@@ -281,6 +281,7 @@ def parse_numeric_csv(path: Path, text: str | None = None) -> tuple[list[str], n
             raise _err(
                 path, f"line {line_no}, column {col}",
                 f"{s[:40]!r} is not a number",
+                "fix the cell or delete the row",
             )
         line_numbers[r] = line_no
     return header, values, line_numbers
@@ -499,7 +500,8 @@ def _read_sidecar(csv_path: Path) -> tuple[dict | None, Path]:
         raise _err(side, f"line {exc.lineno}, column {exc.colno}", f"malformed JSON ({exc.msg})",
                    'fix the sidecar, e.g. {"kind": "shell_rock", "pressure_kpa": 13.8}')
     if not isinstance(meta, dict):
-        raise _err(side, "file", f"sidecar must hold a JSON object, found {type(meta).__name__}")
+        raise _err(side, "file", f"sidecar must hold a JSON object, found {type(meta).__name__}",
+                   'write e.g. {"kind": "steer_stand", "pressure_kpa": null}')
     return meta, side
 
 
