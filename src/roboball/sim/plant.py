@@ -63,6 +63,10 @@ class ShellParams:
     dissipation_scale: float = 1.0
     injected_steer: bool = True                 # injected K, C about the steer (roll) direction
     injected_drive: bool = True                 # injected C about the driveshaft (section IV)
+    # "planar": eq. 9 in the steer plane + drive damping (paper); "3d": roboball.sim.shell3d,
+    # K on the base's tilt and C on the pipe's rolling rate about both horizontal axes (the
+    # steer/drive flags above are the planar model's; the 3-D model always has both terms).
+    geometry: str = "planar"
 
 
 @dataclass
@@ -82,6 +86,7 @@ class SimSpec:
     resolution_hint: float | None = None                  # override the hydroelastic mesh hint (m)
     ramp_length_m: float | None = None                    # finite ramp ending on a flat floor
     robot: RobotFacts | None = None
+    heading_deg: float = 0.0                              # yaw of the whole scene about world z (ground + release)
 
     def resolved_robot(self) -> RobotFacts:
         return self.robot if self.robot is not None else load_robot()
@@ -112,6 +117,20 @@ def shell_coefficients(robot: RobotFacts, spec: SimSpec) -> tuple[float, float]:
     return k, c
 
 
+GEOMETRIES = ("planar", "3d")
+
+
+def injected_term(k, c, shell: ShellParams, normal=(0.0, 0.0, 1.0)):
+    """The injected-shell force term for `shell.geometry`: the paper's planar eq. 9 or the 3-D
+    version (roboball.sim.shell3d).  k, c may be numbers or symbolic expressions."""
+    if shell.geometry == "planar":
+        return InjectedShell(k, c, steer=shell.injected_steer, drive=shell.injected_drive)
+    if shell.geometry == "3d":
+        from .shell3d import InjectedShell3D
+        return InjectedShell3D(k, c, normal=tuple(float(x) for x in normal))
+    raise ValueError(f"unknown injected-shell geometry '{shell.geometry}' (choose from {', '.join(GEOMETRIES)})")
+
+
 def shell_tags(robot: RobotFacts, spec: SimSpec) -> ShellTags:
     """Contact properties of the bedliner for this spec (eq. 10-11 for hydroelastic)."""
     mu = float(robot.data["shell"]["ground_friction"])
@@ -134,10 +153,21 @@ def shell_tags(robot: RobotFacts, spec: SimSpec) -> ShellTags:
     return ShellTags(hydro_modulus=modulus, hunt_crossley=dissipation, mu=mu, resolution_hint=hint)
 
 
-def _ground(plant, robot: RobotFacts, kind: str, ramp_angle_deg: float, ramp_length_m=None):
-    """Rigid ground: a half-space (tilted for the ramp so that downhill is +x).  A finite ramp
-    of length L (along the slope, from the robot's start) ends on a flat floor L sin(alpha)
-    below the start: a second half-space meeting the ramp in a concave corner."""
+def ground_normal(alpha: float, heading_deg: float = 0.0) -> np.ndarray:
+    """Unit normal of the ground in the world: (sin a, 0, cos a) for a ramp of slope a that
+    descends towards +x, turned by the scene's heading about world z."""
+    n = np.array([math.sin(alpha), 0.0, math.cos(alpha)])
+    if heading_deg:
+        n = RotationMatrix.MakeZRotation(math.radians(heading_deg)).multiply(n)
+    return n
+
+
+def _ground(plant, robot: RobotFacts, kind: str, ramp_angle_deg: float, ramp_length_m=None,
+            heading_deg: float = 0.0):
+    """Rigid ground: a half-space (tilted for the ramp so that downhill is +x, then turned by
+    `heading_deg` about world z).  A finite ramp of length L (along the slope, from the robot's
+    start) ends on a flat floor L sin(alpha) below the start: a second half-space meeting the
+    ramp in a concave corner."""
     mu = float(robot.data["shell"]["ground_friction"])
     props = ProximityProperties()
     props.AddProperty("material", "coulomb_friction", CoulombFriction(mu, mu))
@@ -145,7 +175,10 @@ def _ground(plant, robot: RobotFacts, kind: str, ramp_angle_deg: float, ramp_len
     alpha = math.radians(ramp_angle_deg) if kind == "ramp" else 0.0
     # HalfSpace's outward normal is +z of its frame; pitch it by +alpha about y so that the
     # surface descends towards +x.
-    X_WG = RigidTransform(RotationMatrix.MakeYRotation(alpha), [0.0, 0.0, 0.0])
+    R_WG = RotationMatrix.MakeYRotation(alpha)
+    if heading_deg:
+        R_WG = RotationMatrix.MakeZRotation(math.radians(heading_deg)).multiply(R_WG)
+    X_WG = RigidTransform(R_WG, [0.0, 0.0, 0.0])
     plant.RegisterCollisionGeometry(plant.world_body(), X_WG, HalfSpace(), "ground", props)
     if kind == "ramp" and ramp_length_m is not None:
         X_WF = RigidTransform([0.0, 0.0, -ramp_length_m * math.sin(alpha)])
@@ -193,7 +226,7 @@ def build(spec: SimSpec, sample_period: float | None = None, meshcat=None) -> Bu
         alpha = 0.0
     else:
         ramp = spec.ramp_angle_deg if spec.ramp_angle_deg is not None else robot.ramp_angle_deg
-        alpha = _ground(plant, robot, spec.kind, ramp, spec.ramp_length_m)
+        alpha = _ground(plant, robot, spec.kind, ramp, spec.ramp_length_m, spec.heading_deg)
     plant.mutable_gravity_field().set_gravity_vector([0.0, 0.0, -robot.g])
     plant.Finalize()
     layout = _layout(plant)
@@ -206,9 +239,10 @@ def build(spec: SimSpec, sample_period: float | None = None, meshcat=None) -> Bu
         params = spec.friction_params.get(joint) or friction_laws.table1_params(robot, law, joint)
         terms.append(JointFriction(joint, law, params))
     injected = None
+    normal = ground_normal(alpha, spec.heading_deg)
     if spec.contact == "injected" and layout.base_v is not None:
         k, c = shell_coefficients(robot, spec)
-        injected = InjectedShell(k, c, steer=spec.shell.injected_steer, drive=spec.shell.injected_drive)
+        injected = injected_term(k, c, spec.shell, normal)
         terms.append(injected)
     terms.extend(spec.extra_terms)
     force_system = build_force_system(layout, terms)
@@ -234,4 +268,5 @@ def build(spec: SimSpec, sample_period: float | None = None, meshcat=None) -> Bu
     diagram = builder.Build()
     built = Built(diagram, plant, scene_graph, layout, spec, robot, injected, tags, logger, force_system)
     built.ramp_alpha = alpha
+    built.ground_normal = normal
     return built

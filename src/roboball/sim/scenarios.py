@@ -20,7 +20,7 @@ import time
 
 import numpy as np
 import pandas as pd
-from pydrake.math import RigidTransform, RollPitchYaw
+from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
 from pydrake.systems.analysis import Simulator
 
 from ..errors import SimulationError
@@ -52,8 +52,12 @@ def set_release(built: Built, context, release: float, steer0: float = 0.0) -> N
     else:
         r = built.robot.radius
         alpha = getattr(built, "ramp_alpha", 0.0)
-        normal = np.array([math.sin(alpha), 0.0, math.cos(alpha)])
-        X = RigidTransform(RollPitchYaw(release, 0.0, 0.0), r * normal)
+        normal = getattr(built, "ground_normal", np.array([math.sin(alpha), 0.0, math.cos(alpha)]))
+        R = RotationMatrix(RollPitchYaw(release, 0.0, 0.0))
+        heading = built.spec.heading_deg
+        if heading:   # the whole scene turned about world z: the robot's release pose with it
+            R = RotationMatrix.MakeZRotation(math.radians(heading)).multiply(R)
+        X = RigidTransform(R, r * normal)
         plant.SetFreeBodyPose(pctx, plant.GetBodyByName("pitch_center"), X)
         if plant.HasJointNamed("steer") and built.layout.joint_q.get("steer") is not None:
             plant.GetJointByName("steer").set_angle(pctx, steer0)
@@ -91,6 +95,10 @@ def describe(spec: SimSpec, t: float | None = None) -> str:
     for name in ("modulus_scale", "dissipation_scale"):
         if getattr(sp, name) != 1.0:
             parts.append(f"{name} {getattr(sp, name):g}")
+    if sp.geometry != "planar":
+        parts.append(f"shell geometry {sp.geometry}")
+    if spec.heading_deg:
+        parts.append(f"heading {spec.heading_deg:g} deg")
     if t is not None:
         parts.append(f"t = {t:.3f} s")
     return ", ".join(parts)
@@ -108,7 +116,8 @@ def _check_state(built: Built, x: np.ndarray, t: float) -> None:
     if lay.base_q is not None:
         p = x[lay.base_q + 4: lay.base_q + 7]
         alpha = getattr(built, "ramp_alpha", 0.0)
-        height = p[0] * math.sin(alpha) + p[2] * math.cos(alpha)
+        normal = getattr(built, "ground_normal", np.array([math.sin(alpha), 0.0, math.cos(alpha)]))
+        height = float(np.dot(p, normal))
         if height < 0.5 * built.robot.radius:
             raise SimulationError(f"shell penetrated the ground by {built.robot.radius - height:.3f} m ({where})")
 
