@@ -87,6 +87,11 @@ class SimSpec:
     ramp_length_m: float | None = None                    # finite ramp ending on a flat floor
     robot: RobotFacts | None = None
     heading_deg: float = 0.0                              # yaw of the whole scene about world z (ground + release)
+    # Time-varying pressure (roboball.sim.pressure): with contact "injected" the shell follows
+    # pressure_schedule (a PressureSchedule) through shell_laws (ShellLaws: zeta(p), omega_n(p))
+    # as an input, instead of fixed K, C; hydroelastic schedules are run by pressure.simulate_schedule.
+    pressure_schedule: object = None
+    shell_laws: object = None
 
     def resolved_robot(self) -> RobotFacts:
         return self.robot if self.robot is not None else load_robot()
@@ -240,13 +245,24 @@ def build(spec: SimSpec, sample_period: float | None = None, meshcat=None) -> Bu
         terms.append(JointFriction(joint, law, params))
     injected = None
     normal = ground_normal(alpha, spec.heading_deg)
+    pressure_system = None
     if spec.contact == "injected" and layout.base_v is not None:
-        k, c = shell_coefficients(robot, spec)
-        injected = injected_term(k, c, spec.shell, normal)
-        terms.append(injected)
+        if spec.pressure_schedule is not None:
+            if spec.shell_laws is None:
+                raise ValueError("a pressure schedule needs the shell's regression laws zeta(p), omega_n(p) "
+                                 "(SimSpec.shell_laws, e.g. from results/identify/shell_regression.csv)")
+            from .pressure import scheduled_shell_system
+            pressure_system = scheduled_shell_system(layout, spec.shell_laws, robot, spec.pressure_schedule,
+                                                     spec.shell, normal)
+        else:
+            k, c = shell_coefficients(robot, spec)
+            injected = injected_term(k, c, spec.shell, normal)
+            terms.append(injected)
     terms.extend(spec.extra_terms)
     force_system = build_force_system(layout, terms)
     sources = [force_system] if force_system is not None else []
+    if pressure_system is not None:
+        sources.append(pressure_system)
     sources += [make(layout, spec.dt) for make in spec.extra_systems]
     for system in sources:
         builder.AddSystem(system)
@@ -269,4 +285,5 @@ def build(spec: SimSpec, sample_period: float | None = None, meshcat=None) -> Bu
     built = Built(diagram, plant, scene_graph, layout, spec, robot, injected, tags, logger, force_system)
     built.ramp_alpha = alpha
     built.ground_normal = normal
+    built.pressure_system = pressure_system
     return built

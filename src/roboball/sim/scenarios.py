@@ -99,6 +99,8 @@ def describe(spec: SimSpec, t: float | None = None) -> str:
         parts.append(f"shell geometry {sp.geometry}")
     if spec.heading_deg:
         parts.append(f"heading {spec.heading_deg:g} deg")
+    if spec.pressure_schedule is not None:
+        parts.append(spec.pressure_schedule.describe())
     if t is not None:
         parts.append(f"t = {t:.3f} s")
     return ", ".join(parts)
@@ -138,7 +140,7 @@ def _max_wall_s(max_wall_s: float | None) -> float | None:
 
 def simulate(spec: SimSpec, release: float, duration: float, sample_rate_hz: float = 100.0,
              steer0: float = 0.0, chunk_s: float = 0.5, built: Built | None = None,
-             return_states: bool = False, max_wall_s: float | None = None):
+             return_states: bool = False, max_wall_s: float | None = None, before_chunk=None):
     """Run `spec` from rest at `release` for `duration` s; return a recording DataFrame.
 
     The state is checked between chunks of `chunk_s` for NaN, blow-up and deep penetration; a
@@ -146,7 +148,8 @@ def simulate(spec: SimSpec, release: float, duration: float, sample_rate_hz: flo
     solver crawling through a near-singular state) is caught by a wall-clock budget:
     `max_wall_s` (or the environment variable ROBOBALL_SIM_MAX_WALL_S; default none), checked
     between chunks.  With `return_states` the logged plant states (n_x by N) come back too:
-    (df, states).
+    (df, states).  `before_chunk(built, context, t0, t1)`, when given, runs before each chunk
+    is simulated (e.g. to replace contact properties between segments: roboball.sim.pressure).
     """
     budget = _max_wall_s(max_wall_s)
     if built is None:
@@ -160,7 +163,12 @@ def simulate(spec: SimSpec, release: float, duration: float, sample_rate_hz: flo
     start = time.monotonic()
     try:
         while t < duration - 1e-12:
-            t = min(duration, t + chunk_s)
+            t_next = min(duration, t + chunk_s)
+            if duration - t_next < 1e-9:   # sums of short chunks must still end exactly at duration
+                t_next = duration
+            if before_chunk is not None:
+                before_chunk(built, ctx, t, t_next)
+            t = t_next
             sim.AdvanceTo(t)
             _check_state(built, built.plant.GetPositionsAndVelocities(pctx), t)
             wall = time.monotonic() - start
