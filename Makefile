@@ -6,7 +6,7 @@ BIN     := $(VENV)/bin
 STAMP   := $(VENV)/.installed
 CORES   ?= 2
 
-.PHONY: figures test test-fast raw-data clean-results venv
+.PHONY: figures test test-slow test-all raw-data clean-results venv
 
 venv: $(STAMP)
 
@@ -26,11 +26,15 @@ SNAKEMAKE_TARGETS ?=
 figures: $(STAMP)
 	$(BIN)/python -m roboball.runlock $(BIN)/snakemake $(SNAKEMAKE_TARGETS) --cores $(CORES) --rerun-incomplete --rerun-triggers mtime input params code
 
+# The everyday suite (about 5 minutes on 2 cores); the slow end-to-end tests (whole pipeline,
+# whole campaign regeneration) run in CI after it (.ci/run) or with `make test-slow`.
 test: $(STAMP)
-	$(BIN)/python -m pytest -q
-
-test-fast: $(STAMP)
 	$(BIN)/python -m pytest -q -m "not slow"
+
+test-slow: $(STAMP)
+	$(BIN)/python -m pytest -q -m slow
+
+test-all: test test-slow
 
 # Rebuild the virtual test bed's campaign (raw_data/) bit-for-bit from its seed.
 raw-data: $(STAMP)
