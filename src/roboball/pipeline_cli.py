@@ -12,7 +12,7 @@ import sys
 from .cli import OneLineArgumentParser, register_command
 
 STAGE_MODULES = ("roboball.pipeline.ident", "roboball.pipeline.simulation", "roboball.pipeline.figures",
-                 "roboball.pipeline.report", "roboball.pipeline.friction")
+                 "roboball.pipeline.report", "roboball.pipeline.friction", "roboball.pipeline.deflating")
 
 
 def _stages(wanted: str | None = None) -> dict:
