@@ -23,6 +23,7 @@ include: "workflow/rules/shell.smk"
 # friction.smk: added with the friction fits
 include: "workflow/rules/ramp.smk"
 include: "workflow/rules/figures.smk"
+include: "workflow/rules/beyond.smk"
 
 report: "workflow/report/workflow.rst"
 
