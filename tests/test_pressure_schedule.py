@@ -193,3 +193,38 @@ def test_replacing_properties_in_context_equals_rebuilding_with_state_carried(ro
     s1.AdvanceTo(1.4)
     x_stay = b1.plant.GetPositionsAndVelocities(b1.plant.GetMyContextFromRoot(s1.get_context()))
     assert np.abs(x_stay - x_end).max() > 1e-3
+
+
+# ---- Fig. S1 stage -----------------------------------------------------------------------------
+def _regression_csv(path):
+    path.write_text("name,value\nzeta_a,0.2282\nzeta_b,-0.03819\nomega_n_c,2.702\nomega_n_d,0.02761\n")
+    return str(path)
+
+
+def test_fig_s1_stage_writes_figure_and_traces(tmp_path):
+    import pandas as pd
+
+    from roboball.pipeline.deflating import deflating_ramp
+
+    reg = _regression_csv(tmp_path / "reg.csv")
+    png = tmp_path / "figS1_deflating_ramp.png"
+    deflating_ramp(regression=reg, out_png=str(png), out_csv=str(tmp_path / "tr.csv"), duration=1.0,
+                   contacts=["injected"])
+    assert png.stat().st_size > 10_000 and png.with_suffix(".pdf").stat().st_size > 5_000
+    tr = pd.read_csv(tmp_path / "tr.csv")
+    last = tr.groupby("case").drive_rate_rad_s.last()
+    assert set(last.index) == {"constant 20.7 kPa", "constant 6.9 kPa", "schedule"}
+    assert last["constant 20.7 kPa"] > last["schedule"] > last["constant 6.9 kPa"]
+    assert tr[tr.case == "schedule"].pressure_kpa.iloc[-1] == pytest.approx(LO)
+
+
+def test_fig_s1_stage_refuses_a_constant_schedule_and_missing_regression(tmp_path):
+    from roboball.pipeline.deflating import deflating_ramp
+
+    reg = _regression_csv(tmp_path / "reg.csv")
+    with pytest.raises(RoboballError, match="constant"):
+        deflating_ramp(regression=reg, out_png=str(tmp_path / "f.png"), schedule_time_s=["0"],
+                       schedule_pressure_kpa=["13.8"])
+    with pytest.raises(RoboballError, match="shell regression table not found"):
+        deflating_ramp(regression=str(tmp_path / "none.csv"), out_png=str(tmp_path / "f.png"))
+    assert not (tmp_path / "f.png").exists()
