@@ -54,17 +54,18 @@ def _rest_angle(kind: str, robot) -> float:
 
 
 def release_recording(kind: str, p_kpa, releases, free_s: float, truth: dict, rng, extras=ALL_EXTRAS,
-                      extra_terms=(), extra_systems=()) -> pd.DataFrame:
-    """Rest, then for each release: move, hold, let go, free response.  Dense (1 kHz) signals."""
+                      extra_terms=(), extra_systems=(), base_friction=None, robot=None) -> pd.DataFrame:
+    """Rest, then for each release: move, hold, let go, free response.  Dense (1 kHz) signals.
+    `base_friction` and `robot`: see roboball.testbed.run.truth_spec (blind diagnosis cases)."""
     rate = truth["simulation"]["sample_rate_hz"]
     sig = SIGNAL[kind]
-    angle = _rest_angle(kind, true_robot(truth, perturbed="mass" in extras))
+    angle = _rest_angle(kind, robot if robot is not None else true_robot(truth, perturbed="mass" in extras))
     pieces = [np.full(int(1.0 * rate), angle)]
     for target in releases:
         hand, held = hand_phase(angle, target, truth["hand"], rng, rate)
         pieces.append(hand)
         df, _, _ = run_free(kind, held, free_s, p_kpa, truth, extras, extra_terms=extra_terms,
-                            extra_systems=extra_systems)
+                            extra_systems=extra_systems, base_friction=base_friction, robot=robot)
         y = df[sig].to_numpy()[1:]
         pieces.append(y)
         angle = float(y[-1])
@@ -76,15 +77,18 @@ def release_recording(kind: str, p_kpa, releases, free_s: float, truth: dict, rn
     return dense
 
 
-def ramp_recording(p_kpa: float, truth: dict, rng, extras=ALL_EXTRAS, extra_terms=(), extra_systems=()):
-    """Held at rest on the ramp, released, rolls off the end onto the floor."""
+def ramp_recording(p_kpa: float, truth: dict, rng, extras=ALL_EXTRAS, extra_terms=(), extra_systems=(),
+                   base_friction=None, robot=None):
+    """Held at rest on the ramp, released, rolls off the end onto the floor.
+    `base_friction` and `robot`: see roboball.testbed.run.truth_spec (blind diagnosis cases)."""
     c = truth["campaign"]["ramp"]
     rate = truth["simulation"]["sample_rate_hz"]
     phi0 = float(rng.normal(0.0, c["initial_pipe_angle_sd_rad"]))
     pre = rng.uniform(*c["pre_hold_s"])
     # Long enough to leave the ramp; trimmed to exit + after_exit below.
     df, x, spec = run_free("ramp", phi0, 4.0, p_kpa, truth, extras, ramp_length_m=c["length_m"],
-                           extra_terms=extra_terms, extra_systems=extra_systems)
+                           extra_terms=extra_terms, extra_systems=extra_systems, base_friction=base_friction,
+                           robot=robot)
     t_exit = ramp_exit_time(df, x, spec)
     if t_exit is not None:
         df = df[df.time_s <= t_exit + c["after_exit_s"]]

@@ -14,21 +14,32 @@ ALL_EXTRAS = frozenset({"friction", "shell", "mass", "hydro"})
 
 
 def truth_spec(kind: str, p_kpa: float | None, truth: dict, extras=ALL_EXTRAS,
-               ramp_length_m: float | None = None, extra_terms=(), extra_systems=()) -> SimSpec:
+               ramp_length_m: float | None = None, extra_terms=(), extra_systems=(),
+               base_friction: dict | None = None, robot=None) -> SimSpec:
     """The test bed's simulation spec.  `extras` switches the hidden physics on or off:
     friction (LuGre/Stribeck instead of Table I Majd), shell (shell torques), mass (mass
-    properties differ from the URDF), hydro (fine-mesh hydroelastic instead of point contact)."""
+    properties differ from the URDF), hydro (fine-mesh hydroelastic instead of point contact).
+
+    Blind diagnosis cases (benchmarks/diagnose_blind.py) use two more options, both off by
+    default: `base_friction` ({joint: (law, params)}) replaces the joints' friction laws without
+    "friction" in `extras` (e.g. viscous with a drawn coefficient), and `robot` replaces the
+    robot facts (e.g. a centre of mass moved by roboball.testbed.effects)."""
     extras = frozenset(extras)
     sim = truth["simulation"]
-    robot = true_robot(truth, perturbed="mass" in extras)
+    if robot is None:
+        robot = true_robot(truth, perturbed="mass" in extras)
     stand = kind in ("steer_stand", "drive_stand")
     dt = sim["dt_stand_s"] if stand else sim["dt_shell_s"]
     systems = list(extra_systems)
     friction = {"steer": "none", "drive": "none"}
+    friction_params = {}
     if "friction" in extras:
         systems.append(lugre_system(truth["joint_friction"]))
     else:
         friction = {"steer": "majd", "drive": "majd"}
+    for joint, (law, params) in (base_friction or {}).items():
+        friction[joint] = law
+        friction_params[joint] = dict(params)
     contact = "point"
     shell = ShellParams()
     if not stand and "hydro" in extras and p_kpa is not None:
@@ -39,16 +50,17 @@ def truth_spec(kind: str, p_kpa: float | None, truth: dict, extras=ALL_EXTRAS,
     terms = list(extra_terms)
     if not stand and "shell" in extras:
         terms += shell_truth_terms(truth, p_kpa, robot)
-    return SimSpec(kind=kind, contact=contact, friction=friction, pressure_kpa=p_kpa, shell=shell, dt=dt,
-                   extra_terms=terms, extra_systems=systems, robot=robot,
+    return SimSpec(kind=kind, contact=contact, friction=friction, friction_params=friction_params,
+                   pressure_kpa=p_kpa, shell=shell, dt=dt, extra_terms=terms, extra_systems=systems, robot=robot,
                    resolution_hint=sim["hydro_resolution_hint_m"], ramp_length_m=ramp_length_m)
 
 
 def run_free(kind: str, release: float, duration: float, p_kpa=None, truth=None, extras=ALL_EXTRAS,
-             ramp_length_m=None, extra_terms=(), extra_systems=()):
+             ramp_length_m=None, extra_terms=(), extra_systems=(), base_friction=None, robot=None):
     """Free response from rest at `release`; returns (df at 1 kHz, states, spec)."""
     truth = truth or load_truth()
-    spec = truth_spec(kind, p_kpa, truth, extras, ramp_length_m, extra_terms, extra_systems)
+    spec = truth_spec(kind, p_kpa, truth, extras, ramp_length_m, extra_terms, extra_systems,
+                      base_friction=base_friction, robot=robot)
     df, x = simulate(spec, release, duration, sample_rate_hz=truth["simulation"]["sample_rate_hz"],
                      return_states=True)
     return df, x, spec

@@ -1,0 +1,64 @@
+"""`roboball diagnose RECORDING.csv --out DIR [--kind KIND] [--pressure-kpa P]`.
+
+Reads one recording (or one of the authors' native logs), diagnoses it against the baseline
+of its kind and writes DIR/diagnosis.json, DIR/report.md (+ figures) and DIR/details.json.
+Exit 0 when a diagnosis was made, whatever it found; a one-line error and a non-zero exit on
+bad input (wrong columns, unknown kind, empty file: roboball.recording's validation).
+"""
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+from ..cli import register_command
+from ..errors import RoboballError
+
+KINDS = ("steer_stand", "drive_stand", "shell_rock", "ramp")
+
+
+def _kind(text: str) -> str:
+    import argparse
+    if text not in KINDS:
+        raise argparse.ArgumentTypeError(f"unknown kind '{text}' (choose from {', '.join(KINDS)})")
+    return text
+
+
+def _pressure(text: str) -> float:
+    import argparse
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--pressure-kpa must be a number, got '{text}'")
+
+
+def cmd_diagnose(args) -> int:
+    from . import diagnose
+    from .decide import Settings
+
+    t0 = time.perf_counter()
+    if not Path(args.recording).exists():
+        raise RoboballError(f"{args.recording}: file not found")
+    log = print if args.verbose else None
+    try:
+        d, js = diagnose(args.recording, out_dir=args.out, kind=args.kind, pressure_kpa=args.pressure_kpa,
+                         settings=Settings(), drake=not args.no_drake, log=log)
+    except ValueError as exc:     # e.g. a model that cannot represent the recording's kind
+        raise RoboballError(f"{args.recording}: {exc}")
+    found = ", ".join(m["effect"] for m in js["missing_physics"]) or "nothing missing"
+    f = js["fit"]
+    print(f"{args.recording}: {js['verdict']} ({found}); rms {f['rmse_before']:.4g} -> {f['rmse_after']:.4g} "
+          f"{f['units']}, held out {f['rmse_heldout_before']:.4g} -> {f['rmse_heldout_after']:.4g}; "
+          f"wrote {Path(args.out) / 'diagnosis.json'} in {time.perf_counter() - t0:.1f} s")
+    return 0
+
+
+@register_command
+def _register(sub):
+    p = sub.add_parser("diagnose", help="find the physics a baseline model leaves out of a recording")
+    p.add_argument("recording", help="recording CSV (with its JSON sidecar) or an authors' native log")
+    p.add_argument("--out", required=True, help="output folder (diagnosis.json, report.md, figures)")
+    p.add_argument("--kind", type=_kind, default=None, help="experiment kind (overrides the sidecar)")
+    p.add_argument("--pressure-kpa", type=_pressure, default=None, help="shell pressure (overrides the sidecar)")
+    p.add_argument("--no-drake", action="store_true", help="skip the Drake simulations of the report")
+    p.add_argument("--verbose", action="store_true", help="print the selection rounds")
+    p.set_defaults(func=cmd_diagnose)

@@ -1,0 +1,170 @@
+"""What the diagnosis fits: the free responses of a recording, one window per release.
+
+A recording holds hand-held phases (move, hold, let go) that no model can simulate, and free
+responses after each release that the baseline must explain.  `prepare` finds the releases
+(roboball.releases) and cuts one fit window per release:
+
+* start: 0.05 s before the release instant found by the release finder (the model holds the
+  release value until its own, fitted, release instant);
+* end (stands, shell): the free response ends when a hand takes the body again or the record
+  ends.  A free, decaying oscillation never leaves the range of its previous full swing, and a
+  body that has stopped stays where it stopped.  So after the last turning point the window
+  runs on while the signal stays inside that range (or, once it has come to rest, within a few
+  noise levels of its rest) and ends 0.15 s before it leaves them; if it leaves the range
+  during the half swing after the last turning point, a hand took over mid-swing and the
+  window ends at that turning point.  At most 3 s of stillness are kept after the release
+  finder's end of the response, and never past the next hold;
+* ramp: from the start of motion to `ramp_exit_s` (the paper uses only data before the robot
+  leaves the ramp).
+
+The noise level (sensor noise and quantisation) comes from the release finder's estimate.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from scipy.ndimage import maximum_filter1d, minimum_filter1d
+
+from ..errors import RoboballError
+from ..recording import Recording, normalise
+from ..releases import Release, prepare_signal, require_releases, zigzag
+
+PRE_S = 0.05
+STILL_KEEP_S = 3.0
+
+
+@dataclass
+class Window:
+    """One release's fit window: sample times t (recording time base), values y, the nominal
+    release instant t0 and the release value guess q0."""
+
+    index: int
+    t0: float
+    t: np.ndarray
+    y: np.ndarray
+    q0: float
+    release: Release
+    end_reason: str = ""
+
+    @property
+    def duration(self) -> float:
+        return float(self.t[-1] - self.t0)
+
+    @property
+    def n(self) -> int:
+        return len(self.t)
+
+
+@dataclass
+class Prepared:
+    """A recording ready for diagnosis."""
+
+    recording: Recording
+    kind: str
+    signal: str
+    unit: str
+    windows: list
+    noise: float
+    quantum: float
+    notes: list = field(default_factory=list)
+
+    @property
+    def n(self) -> int:
+        return sum(w.n for w in self.windows)
+
+    @property
+    def label(self) -> str:
+        return self.recording.label
+
+
+def _end_of_free_response(t, y, rel: Release, t_stop: float, noise: float, q: float) -> tuple[float, str]:
+    """End of the free response after release `rel` (see the module docstring)."""
+    sel = (t >= rel.t_release_s) & (t <= t_stop)
+    if sel.sum() < 20:
+        return float(min(rel.t_end_s, t_stop)), "release finder"
+    sig = prepare_signal(t[sel], y[sel])
+    tu, ys = sig.tu, sig.ys
+    amp = abs(rel.y_release - rel.y_rest)
+    ext = zigzag(ys, max(sig.hysteresis, 0.02 * amp))
+    ext = ext[(tu[ext] > rel.t_release_s + 0.05) & (tu[ext] <= rel.t_end_s)]
+    if len(ext) == 0:
+        return float(min(rel.t_end_s, t_stop)), "release finder"
+    k_last = int(ext[-1])
+    k_prev = int(ext[-3]) if len(ext) >= 3 else int(np.searchsorted(tu, rel.t_release_s))
+    tol = 3.0 * sig.sigma + 2.0 * sig.q
+    lo, hi = float(ys[k_prev:k_last + 1].min()) - tol, float(ys[k_prev:k_last + 1].max()) + tol
+    half = rel.half_period_s if np.isfinite(rel.half_period_s) else 0.5
+    after = ys[k_last:]
+    out = np.nonzero((after < lo) | (after > hi))[0]
+    t_last = float(tu[k_last])
+    if out.size and tu[k_last + out[0]] <= t_last + 1.2 * half:
+        return t_last, "hand took over mid-swing"
+    # Still? then a tighter band around the rest level.
+    still_tol = max(6.0 * sig.sigma + 2.0 * sig.q, 0.01 * amp)
+    n_win = max(int(round(0.5 / sig.dt)), 3)
+    end = float(tu[-1]) if not out.size else float(tu[k_last + out[0]]) - 0.15
+    reason = "end of free response" if out.size else "end of record"
+    seg = ys[k_last:]
+    if len(seg) > n_win:
+        # Rolling range over n_win samples starting at each index.
+        origin = -(n_win // 2)
+        rng = (maximum_filter1d(seg, n_win, origin=origin) - minimum_filter1d(seg, n_win, origin=origin))[: len(seg) - n_win]
+        still = np.nonzero(rng <= still_tol)[0]
+        if still.size:
+            k = k_last + int(still[0])
+            level = float(np.median(ys[k:k + n_win]))
+            dev = np.nonzero(np.abs(ys[k:] - level) > still_tol)[0]
+            if dev.size:
+                end = min(end, float(tu[k + dev[0]]) - 0.15)
+                reason = "hand moved the body at rest"
+    end = min(end, rel.t_end_s + STILL_KEEP_S, t_stop)
+    return max(end, t_last), reason
+
+
+def prepare(rec: Recording) -> Prepared:
+    """Fit windows of every release in `rec` (normalised first)."""
+    rec = normalise(rec)
+    kind = rec.kind
+    signal = rec.main_signal()
+    t, y = rec.time, rec.signal(signal)
+    releases = require_releases(rec, signal)
+    unit = "rad/s" if signal.endswith("_rad_s") else "rad"
+    windows, notes = [], []
+    noise = float(np.nanmedian([r.noise for r in releases if np.isfinite(r.noise)] or [1e-3]))
+    quantum = 0.0
+    try:
+        quantum = prepare_signal(t, y).q
+    except ValueError:
+        pass
+    for i, rel in enumerate(releases):
+        if kind == "ramp":
+            t_end = rel.t_end_s
+            reason = "ramp exit" if rec.ramp_exit_s is not None else "end of record (no ramp_exit_s)"
+            if rec.ramp_exit_s is None:
+                notes.append("the recording gives no ramp_exit_s: fitted to the end of the record")
+        else:
+            t_stop = releases[i + 1].held_from_s if i + 1 < len(releases) else float(t[-1])
+            t_end, reason = _end_of_free_response(t, y, rel, t_stop, noise, quantum)
+        sel = (t >= rel.t_release_s - PRE_S) & (t <= t_end)
+        if sel.sum() < 20:
+            notes.append(f"release {i + 1} at {rel.t_release_s:.2f} s: too few samples, skipped")
+            continue
+        q0 = float(rel.y_release) if kind != "ramp" else 0.0
+        windows.append(Window(index=len(windows), t0=float(rel.t_release_s), t=t[sel], y=y[sel], q0=q0,
+                              release=rel, end_reason=reason))
+    if not windows:
+        raise RoboballError(f"{rec.label}: {signal}: no release long enough to diagnose (need 20 samples after a release)")
+    return Prepared(recording=rec, kind=kind, signal=signal, unit=unit, windows=windows, noise=noise,
+                    quantum=quantum, notes=notes)
+
+
+def read(path, kind: str | None = None, pressure_kpa: float | None = None) -> Recording:
+    """Read a recording (or one of the authors' native logs) with the shared validation."""
+    from ..importers import read_any
+    path = Path(path)
+    if not path.exists():
+        raise RoboballError(f"{path}: file not found")
+    return read_any(path, kind=kind, pressure_kpa=pressure_kpa)

@@ -1,0 +1,358 @@
+"""Decide which physics the baseline leaves out: greedy forward selection by simulation error.
+
+1. Fit the baseline (its own parameters and every release state) to the whole recording.
+2. Each round, every vocabulary effect that applies to the experiment and is not yet in the
+   model is added in turn: started from the best of a small grid of magnitudes, then refitted
+   with everything else by Levenberg-Marquardt on the SIMULATION error over all releases
+   (`roboball.diagnose.fit`).  The `top_k` best screened candidates are refitted to
+   convergence and cross-validated: leave one release out (fit on the others, then fit only
+   the held-out release's state with the model frozen and score it), or for a recording with a
+   single release, three contiguous time blocks.
+3. The best candidate (lowest BIC) is kept only if it improves BOTH an information criterion
+   (delta BIC below -`bic_min`) AND the held-out RMSE (by at least `cv_gain`), and its
+   magnitude's 95% interval excludes zero.  Rounds stop when nothing qualifies, the residual is
+   white (lag-1 autocorrelation below `white_rho` and RMS within `white_factor` noise levels),
+   or `max_effects` effects were added.  Several effects may be kept.
+4. A backward pass drops any kept effect whose removal costs neither BIC nor held-out error
+   (an early pick made redundant by a later one).
+
+Statistics.  The residual of a model that misses physics is strongly autocorrelated, so the
+BIC uses the effective number of independent samples n_eff = n (1 - rho1) / (1 + rho1) of the
+larger model's residual (rho1: lag-1 autocorrelation within releases):
+    BIC = n_eff ln(RSS / n) + k ln(n_eff),
+with k the number of fitted parameters (release states included).  95% intervals come from the
+Jacobian at the optimum, cov = s^2 (J^T J)^-1 inflated by n / n_eff.
+
+Verdict: `adequate` when nothing was added and the baseline's residual is at the noise level
+or shows no structure; `augmented` when effects were added and the augmented model explains
+the recording (RMS within `explained_factor` noise levels, or at least 90% of the baseline's
+squared residual removed); `unexplained` otherwise (a structured residual remains; where it
+sits is reported by roboball.diagnose.locate).
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..physics import effects as fx
+from .data import Prepared
+from .fit import Engine, Problem, effect_keys
+from .models import DT, ReducedModel, model_for
+
+
+@dataclass
+class Settings:
+    dt: float = DT
+    screen_iter: int = 4
+    fit_iter: int = 15
+    top_k: int = 2
+    bic_min: float = 10.0
+    cv_gain: float = 0.05
+    max_effects: int = 4
+    white_rho: float = 0.3
+    white_factor: float = 1.5
+    explained_factor: float = 3.0
+    explained_share: float = 0.9
+    n_blocks: int = 3
+
+
+@dataclass
+class Scored:
+    """A fitted model (full data) with its cross-validation and statistics."""
+
+    effects: tuple
+    full: Problem
+    cv_rmse: float = math.nan
+    cv_pred: dict = field(default_factory=dict)     # window -> held-out prediction (NaN where fitted)
+    rho1: float = math.nan
+    bic: float = math.nan
+    delta_bic: float = math.nan
+
+    @property
+    def rmse(self) -> float:
+        return math.sqrt(self.full.rss / max(self.full.n, 1))
+
+    @property
+    def values(self) -> dict:
+        return self.full.values
+
+
+@dataclass
+class Diagnosis:
+    """Everything the report and diagnosis.json need."""
+
+    prep: Prepared
+    model: ReducedModel
+    settings: Settings
+    baseline: Scored
+    final: Scored
+    chosen: list
+    steps: list                     # per round: candidates with their scores
+    ci95: dict
+    verdict: str
+    noise: float
+    timings: dict = field(default_factory=dict)
+    folds: list = field(default_factory=list)
+
+    @property
+    def effects(self) -> tuple:
+        return self.final.effects
+
+
+def residuals(prep: Prepared, pred: dict) -> dict:
+    return {w.index: pred[w.index] - w.y for w in prep.windows if w.index in pred}
+
+
+def lag1(prep: Prepared, res: dict) -> float:
+    """Lag-1 autocorrelation of the residual, pooled within releases."""
+    num = den = 0.0
+    for r in res.values():
+        r = r - np.mean(r)
+        num += float(np.sum(r[1:] * r[:-1]))
+        den += float(np.sum(r * r))
+    return num / den if den > 0 else 0.0
+
+
+def n_eff(n: int, rho: float) -> float:
+    rho = min(max(rho, 0.0), 0.995)
+    return max(n * (1.0 - rho) / (1.0 + rho), 10.0)
+
+
+def bic(rss: float, n: int, k: int, neff: float) -> float:
+    return neff * math.log(max(rss, 1e-300) / n) + k * math.log(neff)
+
+
+class Selector:
+    """Runs the forward selection for one prepared recording."""
+
+    def __init__(self, prep: Prepared, model: ReducedModel | None = None, settings: Settings | None = None,
+                 log=None):
+        self.prep = prep
+        self.model = model or model_for(prep.kind, **({"ramp_angle_deg": prep.recording.ramp_angle_deg}
+                                                      if prep.kind == "ramp" else {}))
+        self.s = settings or Settings()
+        self.engine = Engine(self.model, prep, self.s.dt)
+        self.full_masks = {w.index: np.ones(w.n, bool) for w in prep.windows}
+        self.folds = self._folds()
+        self.log = log or (lambda msg: None)
+
+    # ---- cross-validation folds --------------------------------------------------------------
+    def _folds(self):
+        """[(train masks, held-out window or None, held-out masks)]."""
+        wins = self.prep.windows
+        if len(wins) >= 2:
+            out = []
+            for w in wins:
+                train = {v.index: np.ones(v.n, bool) for v in wins if v.index != w.index}
+                out.append((train, w.index, {w.index: np.ones(w.n, bool)}))
+            return out
+        w = wins[0]
+        after = np.nonzero(w.t >= w.t0)[0]
+        edges = np.linspace(0, len(after), self.s.n_blocks + 1).astype(int)
+        out = []
+        for b in range(self.s.n_blocks):
+            held = np.zeros(w.n, bool)
+            lo = 0 if b == 0 else after[edges[b]]
+            hi = w.n if b == self.s.n_blocks - 1 else after[edges[b + 1]]
+            held[lo:hi] = True
+            out.append(({w.index: ~held}, None, {w.index: held}))
+        return out
+
+    # ---- problems -----------------------------------------------------------------------------
+    def free_keys(self, effects, windows=None) -> list:
+        return [b.name for b in self.model.base_params] + effect_keys(effects) + self.engine.release_keys(windows)
+
+    def full_problem(self, effects, values) -> Problem:
+        return Problem(effects=tuple(effects), values=dict(values), free=self.free_keys(effects),
+                       masks=dict(self.full_masks))
+
+    def cross_validate(self, scored: list, cofit: bool = False) -> None:
+        """Held-out RMSE of each scored model (batched over models and folds).  With `cofit`,
+        the models' full fits are refined in the same batched iterations as the folds (which
+        then start from the models' current, not final, values)."""
+        if not scored:
+            return
+        stage1 = [sc.full for sc in scored] if cofit else []
+        for sc in scored:
+            for fi, (train, held_w, held_masks) in enumerate(self.folds):
+                wins = set(train)
+                p = Problem(effects=sc.effects, values=dict(sc.values),
+                            free=[k for k in self.free_keys(sc.effects) if "@" not in k or int(k.split("@")[1]) in wins],
+                            masks=dict(train), tag=(id(sc), fi))
+                stage1.append(p)
+        for p in stage1:
+            p.converged = False
+        c0 = self.engine.n_calls
+        self.engine.fit(stage1, max_iter=self.s.fit_iter)
+        self.log(f"   cv stage1: {len(stage1)} problems, {self.engine.n_calls - c0} calls")
+        stage1 = [p for p in stage1 if isinstance(p.tag, tuple)]
+        stage2 = []
+        for p in stage1:
+            sc_id, fi = p.tag
+            train, held_w, held_masks = self.folds[fi]
+            if held_w is None:
+                continue
+            sc = next(s for s in scored if id(s) == sc_id)
+            v = dict(p.values)
+            for k in self.engine.release_keys([held_w]):
+                v[k] = sc.values[k]
+            stage2.append(Problem(effects=sc.effects, values=v, free=self.engine.release_keys([held_w]),
+                                  masks={held_w: np.ones(self.engine.windows[held_w].n, bool)}, tag=p.tag))
+        c0 = self.engine.n_calls
+        self.engine.fit(stage2, max_iter=self.s.fit_iter)
+        self.log(f"   cv stage2: {len(stage2)} problems, {self.engine.n_calls - c0} calls")
+        by_tag = {p.tag: p for p in stage2}
+        for sc in scored:
+            pred = {w.index: np.full(w.n, np.nan) for w in self.prep.windows}
+            for fi, (train, held_w, held_masks) in enumerate(self.folds):
+                p = by_tag.get((id(sc), fi)) if held_w is not None else next(
+                    q for q in stage1 if q.tag == (id(sc), fi))
+                for w, m in held_masks.items():
+                    pred[w][m] = p.pred[w][m]
+            sc.cv_pred = pred
+            sq = [np.nansum((pred[w.index] - w.y) ** 2) for w in self.prep.windows]
+            n = sum(int(np.sum(np.isfinite(pred[w.index]))) for w in self.prep.windows)
+            sc.cv_rmse = math.sqrt(sum(sq) / max(n, 1))
+
+    def score(self, sc: Scored, reference: Scored | None = None) -> None:
+        sc.rho1 = lag1(self.prep, residuals(self.prep, sc.full.pred))
+        ne = n_eff(sc.full.n, sc.rho1)
+        sc.bic = bic(sc.full.rss, sc.full.n, sc.full.k, ne)
+        if reference is not None:
+            sc.delta_bic = sc.bic - bic(reference.full.rss, reference.full.n, reference.full.k, ne)
+
+    def white(self, sc: Scored) -> bool:
+        return sc.rho1 < self.s.white_rho and sc.rmse <= self.s.white_factor * self.prep.noise
+
+    # ---- confidence intervals -------------------------------------------------------------
+    def ci95(self, sc: Scored) -> dict:
+        p = sc.full
+        J = p.J
+        n, k = J.shape
+        s2 = p.rss / max(n - k, 1)
+        infl = n / n_eff(n, sc.rho1)
+        scale = np.array([max(np.linalg.norm(J[:, j]), 1e-300) for j in range(k)])
+        Js = J / scale
+        try:
+            cov = np.linalg.pinv(Js.T @ Js) / np.outer(scale, scale) * s2 * infl
+        except np.linalg.LinAlgError:
+            cov = np.full((k, k), np.nan)
+        out = {}
+        for j, key in enumerate(p.free):
+            sd = math.sqrt(max(cov[j, j], 0.0))
+            out[key] = (p.values[key] - 1.96 * sd, p.values[key] + 1.96 * sd)
+        return out
+
+    def significant(self, sc: Scored, effect: str) -> bool:
+        ci = self.ci95(sc)
+        first = f"{effect}.{fx.LIBRARY[effect].params[0].name}"
+        lo, hi = ci[first]
+        return not (lo <= 0.0 <= hi)
+
+    # ---- the selection ----------------------------------------------------------------------
+    def run(self) -> Diagnosis:
+        t_start = time.perf_counter()
+        s = self.s
+        eng = self.engine
+        base_p = self.full_problem((), eng.initial_values())
+        base = Scored(effects=(), full=base_p)
+        self.cross_validate([base], cofit=True)
+        self.score(base)
+        self.log(f"baseline: rmse {base.rmse:.4g}, held-out {base.cv_rmse:.4g}, rho1 {base.rho1:.3f}")
+        timings = {"baseline_s": time.perf_counter() - t_start}
+        current = base
+        chosen: list = []
+        steps = []
+        while len(chosen) < s.max_effects and not self.white(current):
+            cands = [c for c in self.model.candidates if c not in chosen]
+            if not cands:
+                break
+            probs = [self.full_problem(tuple(chosen) + (c,), current.values) for c in cands]
+            starts = eng.best_starts([(p, c, current.values) for p, c in zip(probs, cands)])
+            for p, v in zip(probs, starts):
+                p.values = v
+            eng.fit(probs, max_iter=s.screen_iter)
+            order = sorted(range(len(cands)), key=lambda i: probs[i].rss)
+            top = [Scored(effects=probs[i].effects, full=probs[i]) for i in order[: s.top_k]
+                   if probs[i].rss < current.full.rss]
+            self.cross_validate(top, cofit=True)
+            round_info = []
+            for i in order:
+                p = probs[i]
+                sc = next((t for t in top if t.full is p), None)
+                if sc is None:
+                    sc = Scored(effects=p.effects, full=p)
+                self.score(sc, current)
+                round_info.append(dict(effect=p.effects[-1], rmse=sc.rmse, cv_rmse=sc.cv_rmse,
+                                       delta_bic=sc.delta_bic, rho1=sc.rho1,
+                                       explained=(current.full.rss - p.rss) / p.n / self.prep.noise ** 2,
+                                       params={k: p.values[k] for k in effect_keys(p.effects[-1:])}))
+            eligible = [sc for sc in top
+                        if sc.delta_bic < -s.bic_min and sc.cv_rmse < (1.0 - s.cv_gain) * current.cv_rmse
+                        and self.significant(sc, sc.effects[-1])]
+            for info in round_info:
+                info["kept"] = False
+            if not eligible:
+                steps.append(round_info)
+                self.log("round: nothing qualifies: " + ", ".join(
+                    f"{i['effect']} dBIC {i['delta_bic']:.1f} cv {i['cv_rmse']:.4g} expl {i['explained']:.2f}" for i in round_info))
+                break
+            best = min(eligible, key=lambda sc: sc.bic)
+            for info in round_info:
+                info["kept"] = info["effect"] == best.effects[-1]
+            steps.append(round_info)
+            self.log(f"round: keep {best.effects[-1]} (rmse {best.rmse:.4g}, held-out {best.cv_rmse:.4g}, "
+                     f"dBIC {best.delta_bic:.1f}); " + ", ".join(
+                    f"{i['effect']} dBIC {i['delta_bic']:.1f} cv {i['cv_rmse']:.4g} expl {i['explained']:.2f}" for i in round_info))
+            chosen.append(best.effects[-1])
+            current = best
+        timings["forward_s"] = time.perf_counter() - t_start - timings["baseline_s"]
+        # Backward pass: drop effects a later pick made redundant.
+        if len(chosen) > 1:
+            t0 = time.perf_counter()
+            changed = True
+            while changed and len(chosen) > 1:
+                changed = False
+                reduced = []
+                for e in chosen:
+                    rest = tuple(c for c in chosen if c != e)
+                    v = {k: x for k, x in current.values.items() if not k.startswith(e + ".")}
+                    reduced.append(Scored(effects=rest, full=self.full_problem(rest, v)))
+                self.cross_validate(reduced, cofit=True)
+                for e, r in zip(chosen, reduced):
+                    self.score(current, r)
+                    needed = (current.delta_bic < -s.bic_min and current.cv_rmse < (1.0 - s.cv_gain) * r.cv_rmse)
+                    if not needed:
+                        self.log(f"backward: drop {e} (dBIC {current.delta_bic:.1f}, held-out {current.cv_rmse:.4g} vs {r.cv_rmse:.4g})")
+                        chosen.remove(e)
+                        current = r
+                        changed = True
+                        break
+            timings["backward_s"] = time.perf_counter() - t0
+        if chosen:
+            self.score(current, base)
+        ci = self.ci95(current) if chosen else {}
+        verdict = self.verdict(base, current, chosen)
+        timings["total_s"] = time.perf_counter() - t_start
+        timings["simulations"] = eng.n_sims
+        timings["batched_calls"] = eng.n_calls
+        return Diagnosis(prep=self.prep, model=self.model, settings=s, baseline=base, final=current,
+                         chosen=list(chosen), steps=steps, ci95=ci, verdict=verdict, noise=self.prep.noise,
+                         timings=timings, folds=self.folds)
+
+    def verdict(self, base: Scored, final: Scored, chosen) -> str:
+        s, noise = self.s, self.prep.noise
+        if not chosen:
+            structured = base.rho1 >= 0.5 and base.rmse > s.explained_factor * noise
+            return "unexplained" if structured else "adequate"
+        explained = (final.rmse <= s.explained_factor * noise
+                     or final.rmse ** 2 <= (1.0 - s.explained_share) * base.rmse ** 2)
+        return "augmented" if explained else "unexplained"
+
+
+def diagnose_prepared(prep: Prepared, settings: Settings | None = None, log=None) -> Diagnosis:
+    """Run the selection on a prepared recording."""
+    return Selector(prep, settings=settings, log=log).run()

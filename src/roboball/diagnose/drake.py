@@ -1,0 +1,129 @@
+"""The augmented model in Drake: the chosen effects as a force element of the plant.
+
+`effect_term` turns a set of effects with their parameter values into a
+`roboball.sim.forces.GeneralizedTerm`: the SAME law functions of roboball.physics.effects that
+the reduced models integrate with NumPy are evaluated here on Drake symbolic variables
+(math namespace `SYM`), and `roboball.sim.plant.build` wires the resulting
+SymbolicVectorSystem into the plant's applied-generalised-force port, so Drake evaluates the
+effects in C++ at every step (no Python in the time loop).
+
+Where each experiment's coordinate lives in the plant:
+* stands: the steer (or drive) joint angle and rate, measured from the model's rest angle;
+* shell_rock: the floating base's roll (pipe_angle, from the quaternion) and its world-x
+  angular velocity (Kin.pipe_rate), torque on that velocity;
+* ramp: the drive rate (Kin.drive_rate); the torque is a couple on the pipe assembly about its
+  driveshaft axis (R[:,1] T on the base's angular velocity, -T on the drive joint), the same
+  construction as the injected shell's drive damping.
+
+`simulate_windows` releases the Drake model from every fitted release state of a recording and
+returns its prediction at the recording's own samples.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..physics import effects as fx
+from ..sim.forces import SYM, GeneralizedTerm, Kin
+from ..sim.plant import SimSpec, build
+from ..sim.scenarios import simulate
+from .data import Prepared
+from .models import ReducedModel
+
+DRAKE_DT = {"steer_stand": 5e-4, "drive_stand": 5e-4, "shell_rock": 1e-3, "ramp": 1e-3}
+
+
+def effect_values(effects, values: dict) -> dict:
+    """{effect: {param: value}} from a flat parameter dict ('effect.param' keys)."""
+    return {e: {p: float(values[f"{e}.{p}"]) for p in fx.LIBRARY[e].param_names} for e in effects}
+
+
+def effect_term(model: ReducedModel, effects: dict) -> GeneralizedTerm | None:
+    """A Drake force term applying `effects` ({name: params}) on the experiment's coordinate."""
+    if not effects:
+        return None
+    kind, rest, context = model.kind, model.rest, dict(model.context)
+
+    def law(kin: Kin):
+        lay = kin.layout
+        if kind in ("steer_stand", "drive_stand"):
+            joint = "steer" if kind == "steer_stand" else "drive"
+            q = kin.q[lay.joint_q[joint]] - rest
+            qd = kin.v[lay.joint_v[joint]]
+            return [(lay.joint_v[joint], fx.total_torque(effects, q, qd, context, m=SYM))]
+        if kind == "shell_rock":
+            q = kin.pipe_angle() - rest
+            qd = kin.pipe_rate()
+            return [(lay.base_v, fx.total_torque(effects, q, qd, context, m=SYM))]
+        if kind == "ramp":
+            w = kin.drive_rate()
+            t = fx.total_torque(effects, 0.0 * w, w, context, m=SYM)
+            R = kin.base_rotation()
+            out = [(lay.base_v + i, R[i][1] * t) for i in range(3)]
+            if "drive" in lay.joint_v:
+                out.append((lay.joint_v["drive"], -t))
+            return out
+        raise ValueError(f"no Drake effect term for kind '{kind}'")
+
+    return GeneralizedTerm(law, name="diagnosed[" + "+".join(effects) + "]")
+
+
+def drake_spec(prep: Prepared, model: ReducedModel, values: dict, effects, dt: float | None = None) -> SimSpec:
+    """The Drake scenario of the baseline (effects=()) or the augmented model."""
+    kind = prep.kind
+    dt = dt or DRAKE_DT[kind]
+    term = effect_term(model, effect_values(effects, values))
+    extra = [term] if term is not None else []
+    if kind in ("steer_stand", "drive_stand"):
+        joint = "steer" if kind == "steer_stand" else "drive"
+        return SimSpec(kind=kind, contact="point", friction={joint: "viscous"},
+                       friction_params={joint: {"c": float(values["viscous_c"])}}, dt=dt, extra_terms=extra)
+    if kind == "shell_rock":
+        return SimSpec(kind=kind, contact="point", friction={"steer": "none", "drive": "none"}, dt=dt,
+                       pressure_kpa=prep.recording.pressure_kpa, extra_terms=extra)
+    return SimSpec(kind="ramp", contact="point", friction={"steer": "majd", "drive": "majd"}, dt=dt,
+                   pressure_kpa=prep.recording.pressure_kpa, ramp_angle_deg=prep.recording.ramp_angle_deg,
+                   extra_terms=extra)
+
+
+def _level_before(prep: Prepared, column: str, t0: float) -> float:
+    rec = prep.recording
+    if not rec.has_signal(column):
+        return 0.0
+    t, y = rec.time, rec.signal(column)
+    m = (t >= t0 - 0.25) & (t <= t0)
+    return float(np.median(y[m])) if m.any() else float(np.interp(t0, t, y))
+
+
+def simulate_windows(prep: Prepared, model: ReducedModel, values: dict, effects, dt: float | None = None) -> dict:
+    """Drake prediction at every window's samples, from the fitted release states."""
+    spec = drake_spec(prep, model, values, effects, dt)
+    rate = 1000.0
+    built = build(spec, sample_period=1.0 / rate)
+    out = {}
+    for w in prep.windows:
+        ts = float(values.get(f"ts@{w.index}", 0.0))
+        duration = float(w.t[-1] - w.t0 - ts) + 0.05
+        if prep.kind == "ramp":
+            release = _level_before(prep, "pipe_angle_rad", w.t0 + ts)
+            steer0 = _level_before(prep, "steer_angle_rad", w.t0 + ts)
+        else:
+            release = float(values.get(f"q0@{w.index}", w.q0))
+            steer0 = 0.0
+        df = simulate(spec, release, max(duration, 0.1), sample_rate_hz=rate, steer0=steer0, built=built)
+        tau = w.t - w.t0 - ts
+        y = df[prep.signal].to_numpy()
+        out[w.index] = np.interp(tau, df.time_s.to_numpy(), y, left=y[0])
+    return out
+
+
+def rmse(prep: Prepared, pred: dict, masks: dict | None = None) -> float:
+    sq, n = 0.0, 0
+    for w in prep.windows:
+        r = pred[w.index] - w.y
+        if masks is not None:
+            r = r[masks[w.index]]
+        sq += float(np.sum(r * r))
+        n += len(r)
+    return math.sqrt(sq / max(n, 1))

@@ -1,0 +1,313 @@
+"""Fitting by simulation error, many problems at once.
+
+A *problem* is one least-squares fit: a set of effects added to the baseline, the parameters to
+fit (baseline parameters such as the stand's viscous coefficient, the effects' parameters and the
+release state of every release: value q0@i and instant shift ts@i) and which samples count (all
+of them for the full fit; all but a held-out release or block for cross-validation).  The cost is
+the sum of squared differences between the recording and the reduced model SIMULATED from each
+release over the whole free response, not a regression on differentiated data (which noise
+ruins).
+
+`Engine.fit` runs Levenberg-Marquardt on a list of problems together: every iteration, the
+trial points of all unfinished problems and their finite-difference perturbations are simulated
+in ONE batched call of the reduced model (`roboball.diagnose.models`), so the per-step Python
+cost is shared by hundreds of simulations.  The derivative with respect to a release instant is
+analytic (minus the simulated rate), the others are forward differences.  Steps are bounded by
+the parameters' physical bounds (roboball.physics.effects).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..physics import effects as fx
+from .data import Prepared
+from .models import DT, ReducedModel, hermite
+
+TS_BOUND = 0.2        # s: release instant may move this far from the release finder's
+Q0_BOUND = 0.1        # rad: release value may move this far from the hold level
+FD_REL = 0.01         # forward-difference step, in units of the parameter's typical size
+
+
+def effect_keys(effects) -> list:
+    return [f"{name}.{p.name}" for name in effects for p in fx.LIBRARY[name].params]
+
+
+@dataclass
+class Problem:
+    """One fit.  `values` holds every parameter (free ones are starting values); `free` the
+    keys to fit; `masks` maps window index -> boolean mask of the samples in the cost."""
+
+    effects: tuple
+    values: dict
+    free: list
+    masks: dict
+    tag: object = None
+    # results
+    cost: float = math.inf
+    rss: float = math.inf
+    n: int = 0
+    J: np.ndarray | None = None
+    pred: dict = field(default_factory=dict)      # window -> predicted y (all samples)
+    iterations: int = 0
+    converged: bool = False
+
+    @property
+    def k(self) -> int:
+        return len(self.free)
+
+    def clone(self, **kw) -> "Problem":
+        p = Problem(effects=tuple(kw.get("effects", self.effects)), values=dict(kw.get("values", self.values)),
+                    free=list(kw.get("free", self.free)), masks=dict(kw.get("masks", self.masks)),
+                    tag=kw.get("tag", self.tag))
+        return p
+
+
+class Engine:
+    """Batched simulation and Levenberg-Marquardt for one prepared recording and model."""
+
+    def __init__(self, model: ReducedModel, prep: Prepared, dt: float = DT):
+        self.model, self.prep, self.dt = model, prep, dt
+        self.windows = {w.index: w for w in prep.windows}
+        self.p_keys = [b.name for b in model.base_params] + effect_keys(model.candidates)
+        self.info = {}
+        for b in model.base_params:
+            self.info[b.name] = (b.typical, b.lo, b.hi)
+        for name in model.candidates:
+            for p in fx.LIBRARY[name].params:
+                self.info[f"{name}.{p.name}"] = (p.typical, p.lo, p.hi)
+        for w in prep.windows:
+            self.info[f"q0@{w.index}"] = (0.01, w.q0 - Q0_BOUND, w.q0 + Q0_BOUND)
+            self.info[f"ts@{w.index}"] = (0.01, -TS_BOUND, TS_BOUND)
+        self.n_sims = 0
+        self.n_calls = 0
+        self.sim_time = 0.0
+
+    # ---- starting values -------------------------------------------------------------------
+    def initial_values(self) -> dict:
+        v = {b.name: b.start for b in self.model.base_params}
+        for w in self.prep.windows:
+            if "q0" in self.model.release_params:
+                v[f"q0@{w.index}"] = w.q0
+            v[f"ts@{w.index}"] = 0.0
+        return v
+
+    def release_keys(self, windows=None) -> list:
+        out = []
+        for w in self.prep.windows:
+            if windows is not None and w.index not in windows:
+                continue
+            if "q0" in self.model.release_params:
+                out.append(f"q0@{w.index}")
+            out.append(f"ts@{w.index}")
+        return out
+
+    # ---- batched prediction ----------------------------------------------------------------
+    def predict(self, items):
+        """items: list of (values, window index).  Returns a list of (y, ydot) at the window's
+        samples for each item, from one batched simulation."""
+        B = len(items)
+        if B == 0:
+            return []
+        P = {k: np.fromiter((v.get(k, 0.0) for v, _ in items), float, B) for k in self.p_keys}
+        q0 = np.fromiter((v.get(f"q0@{w}", self.windows[w].q0) for v, w in items), float, B)
+        ts = np.fromiter((v.get(f"ts@{w}", 0.0) for v, w in items), float, B)
+        horizon = max(self.windows[w].duration for _, w in items) + TS_BOUND + 0.05
+        n_steps = int(math.ceil(horizon / self.dt)) + 1
+        import time as _time
+        t0 = _time.process_time()
+        Y, Yd = self.model.simulate(q0, P, n_steps, self.dt)
+        self.sim_time += _time.process_time() - t0
+        self.n_sims += B
+        self.n_calls += 1
+        out = [None] * B
+        wins = np.fromiter((w for _, w in items), int, B)
+        for w in np.unique(wins):
+            cols = np.nonzero(wins == w)[0]
+            win = self.windows[int(w)]
+            tau = (win.t - win.t0)[None, :] - ts[cols][:, None]
+            y = hermite(Y, Yd, self.dt, tau, cols)
+            x = np.clip(tau / self.dt, 0.0, n_steps - 1e-9)
+            i = np.floor(x).astype(int)
+            s = x - i
+            c = cols[:, None]
+            yd = (1 - s) * Yd[i, c] + s * Yd[i + 1, c]
+            yd[tau < 0] = 0.0
+            for j, b in enumerate(cols):
+                out[b] = (y[j], yd[j])
+        return out
+
+    # ---- Levenberg-Marquardt -------------------------------------------------------------
+    def _items_for(self, prob: Problem, values: dict):
+        """Batch items for the residual and finite-difference Jacobian at `values`."""
+        items, plan = [], []
+        used = [w for w, m in prob.masks.items() if np.any(m)]
+        base = {}
+        for w in used:
+            base[w] = len(items)
+            items.append((values, w))
+        steps = {}
+        for key in prob.free:
+            typ, lo, hi = self.info[key]
+            if key.startswith("ts@"):
+                continue
+            h = FD_REL * typ
+            if values[key] + h > hi:
+                h = -h
+            pv = dict(values)
+            pv[key] = values[key] + h
+            steps[key] = h
+            if key.startswith("q0@"):
+                w = int(key.split("@")[1])
+                plan.append((key, w, len(items)))
+                items.append((pv, w))
+            else:
+                for w in used:
+                    plan.append((key, w, len(items)))
+                    items.append((pv, w))
+        return items, base, plan, steps, used
+
+    def _assemble(self, prob: Problem, values, outs, base, plan, steps, used):
+        cols = {k: j for j, k in enumerate(prob.free)}
+        rows = []
+        offsets = {}
+        n = 0
+        for w in used:
+            m = prob.masks[w]
+            offsets[w] = (n, n + int(m.sum()))
+            n += int(m.sum())
+        r = np.empty(n)
+        J = np.zeros((n, len(prob.free)))
+        pred = {}
+        for w, b in base.items():
+            y, yd = outs[b]
+            pred[w] = y
+            if w in offsets:
+                a, e = offsets[w]
+                m = prob.masks[w]
+                r[a:e] = (y - self.windows[w].y)[m]
+                key = f"ts@{w}"
+                if key in cols:
+                    J[a:e, cols[key]] = -yd[m]
+        for key, w, b in plan:
+            if w not in offsets:
+                continue
+            a, e = offsets[w]
+            m = prob.masks[w]
+            J[a:e, cols[key]] = (outs[b][0][m] - pred[w][m]) / steps[key]
+        return r, J, pred
+
+    def evaluate(self, problems, values_list):
+        """Residuals, Jacobians and predictions for each (problem, values) in one batch."""
+        all_items, meta = [], []
+        for prob, values in zip(problems, values_list):
+            items, base, plan, steps, used = self._items_for(prob, values)
+            off = len(all_items)
+            all_items.extend(items)
+            meta.append((off, len(items), base, plan, steps, used))
+        outs = self.predict(all_items)
+        res = []
+        for prob, values, (off, n_items, base, plan, steps, used) in zip(problems, values_list, meta):
+            o = outs[off:off + n_items]
+            res.append(self._assemble(prob, values, o, base, plan, steps, used))
+        return res
+
+    def fit(self, problems, max_iter: int = 30, rtol: float = 1e-3, max_rejects: int = 3, verbose: bool = False):
+        """Levenberg-Marquardt on every problem, batched.  Results are stored on the problems.
+
+        A problem stops when an accepted step lowers the cost by less than `rtol` (relative),
+        after `max_rejects` rejected steps in a row (the dry-friction laws make the cost
+        slightly rough at the scale of a stick event, so the last digits are noise), or after
+        `max_iter` iterations."""
+        todo = [p for p in problems if p.free]
+        for p in problems:
+            if not p.free:
+                (r, J, pred), = self.evaluate([p], [p.values])
+                p.rss, p.cost, p.J, p.pred, p.n, p.converged = float(r @ r), 0.5 * float(r @ r), J, pred, len(r), True
+        if not todo:
+            return problems
+        results = self.evaluate(todo, [p.values for p in todo])
+        state = {}
+        for p, (r, J, pred) in zip(todo, results):
+            p.rss, p.cost, p.J, p.pred, p.n = float(r @ r), 0.5 * float(r @ r), J, pred, len(r)
+            state[id(p)] = dict(r=r, lam=1e-3, rejects=0)
+        active = list(todo)
+        for it in range(max_iter):
+            if not active:
+                break
+            trials = []
+            for p in active:
+                st = state[id(p)]
+                scale = np.array([self.info[k][0] for k in p.free])
+                Js = p.J * scale
+                A = Js.T @ Js
+                g = Js.T @ st["r"]
+                d = np.maximum(np.diag(A), 1e-12 * max(np.max(np.diag(A)), 1e-300))
+                try:
+                    du = np.linalg.solve(A + st["lam"] * np.diag(d), -g)
+                except np.linalg.LinAlgError:
+                    du = -g / (d * (1 + st["lam"]))
+                nv = dict(p.values)
+                for j, k in enumerate(p.free):
+                    _, lo, hi = self.info[k]
+                    nv[k] = float(np.clip(p.values[k] + du[j] * scale[j], lo, hi))
+                trials.append(nv)
+            results = self.evaluate(active, trials)
+            still = []
+            for p, nv, (r, J, pred) in zip(active, trials, results):
+                st = state[id(p)]
+                p.iterations += 1
+                rss = float(r @ r)
+                if verbose:
+                    print(f"  it {it} {p.effects} rss {p.rss:.6g} -> {rss:.6g} lam {st['lam']:.2g}")
+                if rss < p.rss:
+                    gain = (p.rss - rss) / max(p.rss, 1e-300)
+                    p.values, p.rss, p.cost, p.J, p.pred, p.n = nv, rss, 0.5 * rss, J, pred, len(r)
+                    st["r"] = r
+                    st["lam"] = max(st["lam"] / 3.0, 1e-9)
+                    st["rejects"] = 0
+                    if gain < rtol:
+                        p.converged = True
+                        continue
+                else:
+                    st["lam"] *= 6.0
+                    st["rejects"] += 1
+                    if st["lam"] > 1e7 or st["rejects"] >= max_rejects:
+                        p.converged = True
+                        continue
+                still.append(p)
+            active = still
+        return problems
+
+    # ---- grid starts ---------------------------------------------------------------------
+    def best_starts(self, probs_effects):
+        """Vectorised `best_start` for several (problem, effect, base_values) at once."""
+        all_items, spans = [], []
+        for prob, effect, base_values in probs_effects:
+            eff = fx.LIBRARY[effect]
+            grids = [[g * p.typical for g in p.grid] for p in eff.params]
+            combos = [[]]
+            for g in grids:
+                combos = [c + [x] for c in combos for x in g]
+            cands = []
+            for c in combos:
+                v = dict(base_values)
+                for p, x in zip(eff.params, c):
+                    v[f"{effect}.{p.name}"] = float(np.clip(x, p.lo, p.hi))
+                cands.append(v)
+            used = [w for w, m in prob.masks.items() if np.any(m)]
+            start = len(all_items)
+            all_items.extend((v, w) for v in cands for w in used)
+            spans.append((start, cands, used, prob))
+        outs = self.predict(all_items)
+        best = []
+        for start, cands, used, prob in spans:
+            costs = np.zeros(len(cands))
+            for i in range(len(cands) * len(used)):
+                w = used[i % len(used)]
+                m = prob.masks[w]
+                costs[i // len(used)] += float(np.sum((outs[start + i][0] - self.windows[w].y)[m] ** 2))
+            best.append(cands[int(np.argmin(costs))])
+        return best

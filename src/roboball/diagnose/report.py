@@ -1,0 +1,291 @@
+"""Write a diagnosis: DIR/diagnosis.json (the contract, ../shared/specs/diagnosis.md), a readable
+DIR/report.md with figures, and DIR/details.json (everything else: all parameters, every
+candidate of every round, regime table, timings).
+
+The figures overlay the recording, the baseline and the augmented model, both simulated in
+DRAKE from the fitted release states, with the residual before and after; the held-out
+(cross-validated) prediction of the augmented model is drawn too, so the improvement is shown
+on data the fit did not see.
+"""
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ..atomic import write_json_atomic, write_text_atomic
+from ..physics import effects as fx
+from .decide import Diagnosis
+from .drake import rmse as drake_rmse
+from .drake import simulate_windows
+from .locate import classify, locate
+
+
+def _round(x, n=6):
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return None
+    return float(f"{x:.{n}g}")
+
+
+def _clean(obj):
+    """JSON-safe copy: NaN/inf -> None, numpy -> Python, tuples -> lists."""
+    if isinstance(obj, dict):
+        return {str(k): _clean(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_clean(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return [_clean(v) for v in obj.tolist()]
+    if isinstance(obj, (np.floating, float)):
+        return float(obj) if math.isfinite(obj) else None
+    if isinstance(obj, (np.integer,)):
+        return int(obj)
+    if isinstance(obj, np.bool_):
+        return bool(obj)
+    return obj
+
+
+def baseline_fitted(d: Diagnosis) -> dict:
+    v = d.baseline.values
+    out = {b.name: _round(v[b.name]) for b in d.model.base_params}
+    unit = "rad" if d.prep.unit == "rad" else None
+    for w in d.prep.windows:
+        i = w.index + 1
+        if f"q0@{w.index}" in v and unit:
+            out[f"release_{i}_{unit}"] = _round(v[f"q0@{w.index}"])
+        out[f"release_{i}_s"] = _round(w.t0 + v.get(f"ts@{w.index}", 0.0))
+    return out
+
+
+def missing_physics(d: Diagnosis) -> list:
+    out = []
+    dbic = {}
+    for step in d.steps:
+        for info in step:
+            if info.get("kept"):
+                dbic[info["effect"]] = info["delta_bic"]
+    for e in d.chosen:
+        eff = fx.LIBRARY[e]
+        params = {p: _round(d.final.values[f"{e}.{p}"]) for p in eff.param_names}
+        ci = {p: [_round(d.ci95[f"{e}.{p}"][0]), _round(d.ci95[f"{e}.{p}"][1])] for p in eff.param_names}
+        out.append({"effect": e, "dof": d.model.dof, "parameters": params, "ci95": ci,
+                    "delta_bic": _round(dbic.get(e, d.final.delta_bic), 5), "explains": eff.explains})
+    return out
+
+
+def diagnosis_json(d: Diagnosis, located_base, located_final, drake_before=None, drake_after=None) -> dict:
+    located = [dict(w, share_of_residual=_round(w["share_of_residual"], 4), model="baseline")
+               for w in located_base.windows]
+    if d.verdict == "unexplained" and d.chosen:
+        located += [dict(w, share_of_residual=_round(w["share_of_residual"], 4), model="augmented")
+                    for w in located_final.windows]
+    fit = {"rmse_before": _round(d.baseline.rmse), "rmse_after": _round(d.final.rmse),
+           "rmse_heldout_before": _round(d.baseline.cv_rmse), "rmse_heldout_after": _round(d.final.cv_rmse),
+           "units": d.prep.unit}
+    if drake_before is not None:
+        fit["drake_rmse_before"] = _round(drake_before)
+        fit["drake_rmse_after"] = _round(drake_after)
+    return {
+        "kind": d.prep.kind,
+        "baseline": {"description": d.model.description, "fitted": baseline_fitted(d)},
+        "verdict": d.verdict,
+        "located": located,
+        "missing_physics": missing_physics(d),
+        "fit": fit,
+    }
+
+
+# ---- figures ------------------------------------------------------------------------------
+def _figures(d: Diagnosis, out: Path, drake_base, drake_aug, located_base, located_final) -> list:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    files = []
+    prep = d.prep
+    wins = prep.windows
+    n = len(wins)
+    fig, axes = plt.subplots(2, n, figsize=(5.2 * n, 6.4), squeeze=False, sharex="col",
+                             gridspec_kw={"height_ratios": [2, 1.3]})
+    for j, w in enumerate(wins):
+        ax, axr = axes[0, j], axes[1, j]
+        t = w.t - w.t0
+        ax.plot(t, w.y, ".", ms=2.2, color="0.35", label="recording")
+        ax.plot(t, drake_base[w.index], color="tab:red", lw=1.0, label="baseline (Drake)")
+        if d.chosen:
+            ax.plot(t, drake_aug[w.index], color="tab:blue", lw=1.0, label="augmented (Drake)")
+        ax.set_title(f"release {w.index + 1} at {w.t0:.2f} s")
+        axr.plot(t, drake_base[w.index] - w.y, color="tab:red", lw=0.8, label="baseline, fitted")
+        if d.chosen:
+            axr.plot(t, drake_aug[w.index] - w.y, color="tab:blue", lw=0.8, label="augmented, fitted")
+        cv = d.final.cv_pred.get(w.index)
+        if cv is not None and np.any(np.isfinite(cv)):
+            axr.plot(t, cv - w.y, color="tab:green", lw=0.8, ls="--", label="augmented, held out")
+        axr.axhline(0, color="k", lw=0.5)
+        axr.set_xlabel("time since release (s)")
+        if j == 0:
+            ax.set_ylabel(prep.signal)
+            axr.set_ylabel(f"residual ({prep.unit})")
+            ax.legend(fontsize=7, loc="best")
+            axr.legend(fontsize=7, loc="best")
+    fig.suptitle(f"{prep.label}: {d.verdict}" + (f" (+ {', '.join(d.chosen)})" if d.chosen else ""), fontsize=10)
+    fig.tight_layout()
+    f = out / "overlay.png"
+    fig.savefig(f, dpi=110)
+    plt.close(fig)
+    files.append(f.name)
+
+    fig, ax = plt.subplots(figsize=(8, 3.6))
+    regs = [r["regime"] for r in located_base.regimes]
+    x = np.arange(len(regs))
+    ax.bar(x - 0.27, [r["share_of_samples"] for r in located_base.regimes], 0.27, color="0.7", label="share of samples")
+    ax.bar(x, [r["share_of_residual"] for r in located_base.regimes], 0.27, color="tab:red",
+           label="share of squared residual, baseline")
+    if d.chosen:
+        fin = {r["regime"]: r["share_of_residual"] for r in located_final.regimes}
+        ax.bar(x + 0.27, [fin.get(r, 0.0) for r in regs], 0.27, color="tab:blue",
+               label="share of squared residual, augmented")
+    ax.set_xticks(x)
+    ax.set_xticklabels(regs, rotation=30, ha="right", fontsize=8)
+    ax.legend(fontsize=7)
+    ax.set_title("residual by regime (regimes overlap)", fontsize=10)
+    fig.tight_layout()
+    f = out / "regimes.png"
+    fig.savefig(f, dpi=110)
+    plt.close(fig)
+    files.append(f.name)
+
+    fig, ax = plt.subplots(figsize=(10, 3.2))
+    for w in wins:
+        ax.plot(w.t, (d.baseline.full.pred[w.index] - w.y) ** 2, color="tab:red", lw=0.7)
+        if d.chosen:
+            ax.plot(w.t, (d.final.full.pred[w.index] - w.y) ** 2, color="tab:blue", lw=0.7)
+    for loc in located_base.windows:
+        ax.axvspan(loc["start_s"], loc["end_s"], color="orange", alpha=0.25)
+        ax.text(loc["start_s"], ax.get_ylim()[1] * 0.9, f"{loc['regime']} {loc['share_of_residual']:.0%}", fontsize=7)
+    ax.set_xlabel("recording time (s)")
+    ax.set_ylabel(f"squared residual ({prep.unit}^2)")
+    ax.set_title("where the baseline's residual sits (red: baseline, blue: augmented; shaded: located windows)",
+                 fontsize=9)
+    fig.tight_layout()
+    f = out / "windows.png"
+    fig.savefig(f, dpi=110)
+    plt.close(fig)
+    files.append(f.name)
+    return files
+
+
+def _md_table(rows, header) -> str:
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(str(c) for c in r) + " |" for r in rows]
+    return "\n".join(lines)
+
+
+def _fmt(x, n=4):
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "-"
+    return f"{x:.{n}g}"
+
+
+def report_md(d: Diagnosis, js: dict, located_base, located_final, figures, drake_stats) -> str:
+    prep = d.prep
+    u = prep.unit
+    lines = [f"# Diagnosis of `{prep.label}`", "",
+             f"**kind** {prep.kind} - **signal** {prep.signal} - **verdict: {d.verdict}**"
+             + (f" - missing physics: {', '.join(d.chosen)}" if d.chosen else ""), "",
+             f"Baseline: {d.model.description}.", "",
+             f"Fitted inside the baseline: " + ", ".join(f"{k} = {v}" for k, v in js["baseline"]["fitted"].items()),
+             "", f"Noise level of the recording: {prep.noise:.3g} {u}; {len(prep.windows)} release(s) "
+             f"({', '.join(f'{w.t0:.2f}-{w.t[-1]:.2f} s ({w.end_reason})' for w in prep.windows)}).", ""]
+    lines += ["## Where the baseline misses", "",
+              _md_table([(f"{w['start_s']:.2f}-{w['end_s']:.2f} s", w["regime"], f"{w['share_of_residual']:.0%}")
+                         for w in located_base.windows], ["time window", "regime", "share of squared residual"]), "",
+              _md_table([(r["regime"], f"{r['share_of_residual']:.0%}", f"{r['share_of_samples']:.0%}",
+                          f"{r['concentration']:.2f}") for r in located_base.regimes],
+                        ["regime", "share of squared residual", "share of samples", "concentration"]), "",
+              "![residual by regime](regimes.png)", "", "![residual in time](windows.png)", ""]
+    lines += ["## Missing physics", ""]
+    if js["missing_physics"]:
+        rows = []
+        for m in js["missing_physics"]:
+            for p, val in m["parameters"].items():
+                unit = fx.LIBRARY[m["effect"]].units()[p]
+                lo, hi = m["ci95"][p]
+                rows.append((m["effect"], m["dof"], f"{p} = {_fmt(val)} {unit}", f"[{_fmt(lo)}, {_fmt(hi)}]",
+                             _fmt(m["delta_bic"], 5), m["explains"]))
+        lines.append(_md_table(rows, ["effect", "dof", "parameter", "95% interval", "delta BIC", "signature"]))
+    else:
+        lines.append("None: no effect of the vocabulary improved both the BIC and the held-out error.")
+    lines += ["", "## Fit", "",
+              _md_table([("reduced model, fitted", _fmt(d.baseline.rmse), _fmt(d.final.rmse)),
+                         ("reduced model, held out", _fmt(d.baseline.cv_rmse), _fmt(d.final.cv_rmse)),
+                         ("Drake, fitted parameters", _fmt(drake_stats[0]), _fmt(drake_stats[1]))],
+                        ["RMS residual (" + u + ")", "baseline", "augmented"]), "",
+              "Held out: " + ("leave one release out (the model fitted on the other releases, then only the "
+                              "held-out release's state fitted)" if len(prep.windows) > 1 else
+                              f"{d.settings.n_blocks} contiguous time blocks, each predicted by a fit to the others"),
+              "", "![recording, baseline and augmented model in Drake](overlay.png)", ""]
+    lines += ["## Selection", "", "Each round adds every remaining candidate in turn and refits by simulation "
+              "error; a candidate is kept when it lowers the BIC by more than "
+              f"{d.settings.bic_min:g}, the held-out RMS by more than {d.settings.cv_gain:.0%}, and its "
+              "magnitude's 95% interval excludes zero.", ""]
+    for k, step in enumerate(d.steps, start=1):
+        rows = [(i["effect"], _fmt(i["rmse"]), _fmt(i["cv_rmse"]), _fmt(i["delta_bic"], 5),
+                 "kept" if i.get("kept") else "") for i in step]
+        lines += [f"Round {k}:", "", _md_table(rows, ["candidate", "RMS", "held-out RMS", "delta BIC", ""]), ""]
+    if d.verdict == "unexplained":
+        lines += ["## Unexplained residual", "", "A structured residual remains that no effect of the vocabulary "
+                  "explains; it sits here:", "",
+                  _md_table([(f"{w['start_s']:.2f}-{w['end_s']:.2f} s", w["regime"], f"{w['share_of_residual']:.0%}")
+                             for w in (located_final.windows if d.chosen else located_base.windows)],
+                            ["time window", "regime", "share of squared residual"]), ""]
+    if prep.notes:
+        lines += ["## Notes", ""] + [f"- {n}" for n in prep.notes] + [""]
+    lines += [f"Diagnosis took {d.timings.get('total_s', 0):.1f} s ({d.timings.get('simulations', 0)} reduced-model "
+              f"simulations in {d.timings.get('batched_calls', 0)} batched calls) plus "
+              f"{d.timings.get('drake_s', 0):.1f} s of Drake simulation.", ""]
+    return "\n".join(lines)
+
+
+def write(d: Diagnosis, out_dir, drake: bool = True) -> dict:
+    """Write diagnosis.json, details.json, report.md and the figures into `out_dir`."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    labels = classify(d.prep)
+    loc_base = locate(d.prep, d.baseline.full.pred, labels)
+    loc_final = locate(d.prep, d.final.full.pred, labels)
+    t0 = time.perf_counter()
+    if drake:
+        drake_base = simulate_windows(d.prep, d.model, d.baseline.values, ())
+        drake_aug = simulate_windows(d.prep, d.model, d.final.values, d.chosen) if d.chosen else drake_base
+        stats = (drake_rmse(d.prep, drake_base), drake_rmse(d.prep, drake_aug))
+    else:
+        drake_base, drake_aug = d.baseline.full.pred, d.final.full.pred
+        stats = (None, None)
+    d.timings["drake_s"] = time.perf_counter() - t0
+    js = diagnosis_json(d, loc_base, loc_final, *stats)
+    figures = _figures(d, out, drake_base, drake_aug, loc_base, loc_final)
+    details = {
+        "recording": str(d.prep.label),
+        "signal": d.prep.signal,
+        "noise": d.prep.noise,
+        "windows": [dict(index=w.index + 1, t_release_s=w.t0, t_end_s=float(w.t[-1]), samples=w.n,
+                         end_reason=w.end_reason) for w in d.prep.windows],
+        "baseline_values": d.baseline.values,
+        "final_values": d.final.values,
+        "ci95": {k: list(v) for k, v in d.ci95.items()},
+        "rounds": d.steps,
+        "regimes_baseline": loc_base.regimes,
+        "regimes_augmented": loc_final.regimes,
+        "located_augmented": loc_final.windows,
+        "lag1_baseline": d.baseline.rho1,
+        "lag1_augmented": d.final.rho1,
+        "settings": vars(d.settings),
+        "timings": d.timings,
+        "notes": d.prep.notes,
+    }
+    write_json_atomic(out / "details.json", _clean(details))
+    write_text_atomic(out / "report.md", report_md(d, js, loc_base, loc_final, figures, stats))
+    write_json_atomic(out / "diagnosis.json", _clean(js))
+    return js

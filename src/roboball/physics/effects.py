@@ -1,0 +1,211 @@
+"""The effect library: one generalised-force law per physical effect a baseline may leave out.
+
+Each entry of the diagnosis vocabulary (../shared/specs/diagnosis.md) is a plain function of the
+experiment coordinate `q` (rad, measured from the baseline model's rest position), its rate `qd`
+(rad/s) and the effect's parameters, returning the generalised torque (N m) the effect adds on
+that coordinate.  Like `roboball.physics.friction`, every law takes a math namespace `m`, so the
+SAME function body is evaluated on NumPy arrays by the fast reduced models of the diagnosis
+(vectorised over thousands of candidate parameter sets at once) and on Drake symbolic
+expressions when the augmented model is built as a force element in the Drake diagram
+(`roboball.diagnose.drake`, through `roboball.sim.forces.GeneralizedTerm`).  Nothing here
+imports Drake.
+
+The library is PySINDy-like: a list of candidate terms, each with named parameters in SI units
+and physical bounds, behind one interface (`torque`, `total_torque`, `LIBRARY[name].params`)
+that the diagnosis fits and scores by simulation error.
+
+Conventions and modelling choices
+---------------------------------
+* Dry-friction-like laws (coulomb_friction, stiction, rolling_resistance) replace sign(qd) by
+  tanh(qd / V_EPS) with V_EPS = 1 mrad/s.  A memoryless force law cannot hold a body at rest,
+  it creeps at qd = V_EPS atanh(load / tau); with 1 mrad/s a pendulum stuck 20 mrad off rest
+  drifts by well under a milliradian over a ten-second log, below the sensors' quantisation.
+* stiction is the breakaway torque ABOVE kinetic friction: a Stribeck hump
+  tau_s exp(-(qd / V_STRIBECK)^2) that acts only near zero speed, so `coulomb_friction` and
+  `stiction` are separate, additive vocabulary entries (a joint may show either or both).
+* com_offset is a geometric change: the centre of mass sits rotated by `delta` about the
+  coordinate's axis from where the model puts it.  With gravity stiffness k_g = m g d (supplied
+  by the experiment) the gravity torque becomes -k_g sin(q - delta) instead of -k_g sin(q); the
+  law returns the difference, so the rest angle shifts by delta and swings become asymmetric.
+* backlash is free play of half-width b about the rest position: inside it no transmission
+  torque acts, outside it a transmission stiffness k_b engages (a dead-zone spring).
+* linear_stiffness may be negative (the body swings slower than the rigid model says: less
+  restoring torque per radian than m g d, or more inertia).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable
+
+from .mathns import NP
+
+V_EPS = 1e-3          # rad/s: regularisation of sign(qd) for dry-friction-like laws
+V_STRIBECK = 0.02     # rad/s: width of the stiction (Stribeck) hump
+
+
+# ---- the laws -------------------------------------------------------------------------------
+def viscous_damping(q, qd, c, m=NP):
+    """Torque proportional to speed: -c qd (c in N m s/rad)."""
+    return -c * qd
+
+
+def coulomb_friction(q, qd, tau_c, m=NP):
+    """Kinetic dry friction of constant magnitude tau_c (N m) opposing motion."""
+    return -tau_c * m.tanh(qd / V_EPS)
+
+
+def stiction(q, qd, tau_s, m=NP):
+    """Breakaway torque above kinetic friction: extra tau_s (N m) that acts only near rest."""
+    x = qd / V_STRIBECK
+    return -tau_s * m.exp(-x * x) * m.tanh(qd / V_EPS)
+
+
+def quadratic_drag(q, qd, c2, m=NP):
+    """Drag growing with the square of speed: -c2 |qd| qd (c2 in N m s^2/rad^2)."""
+    return -c2 * m.abs(qd) * qd
+
+
+def linear_stiffness(q, qd, k, m=NP):
+    """Extra restoring torque -k q about the rest position (k in N m/rad, may be negative)."""
+    return -k * q
+
+
+def cubic_stiffness(q, qd, k3, m=NP):
+    """Hardening (k3 > 0) or softening (k3 < 0) restoring torque -k3 q^3 (N m/rad^3)."""
+    return -k3 * q * q * q
+
+
+def com_offset(q, qd, delta, k_g, m=NP):
+    """Centre of mass rotated by delta (rad) about the axis: gravity torque change
+    -k_g [sin(q - delta) - sin(q)] (k_g = m g d of the experiment, N m/rad)."""
+    return -k_g * (m.sin(q - delta) - m.sin(q))
+
+
+def backlash(q, qd, k_b, b, m=NP):
+    """Free play of half-width b (rad) about rest; outside it a stiffness k_b (N m/rad) engages."""
+    inside = m.minimum(m.maximum(q, -b), b)
+    return -k_b * (q - inside)
+
+
+def rolling_resistance(q, qd, tau_rr, m=NP):
+    """A torque of magnitude tau_rr (N m) opposing rolling that does not vanish with speed."""
+    return -tau_rr * m.tanh(qd / V_EPS)
+
+
+# ---- metadata -------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Param:
+    """One parameter of an effect: SI unit, physical bounds, a typical magnitude (used to
+    scale the fit and to start it), and `grid`, starting values tried before a fit (in units
+    of `typical`, signed where the parameter may be negative)."""
+
+    name: str
+    unit: str
+    lo: float
+    hi: float
+    typical: float
+    grid: tuple = (0.1, 0.3, 1.0, 3.0)
+
+
+@dataclass(frozen=True)
+class Effect:
+    """A vocabulary entry: its law, parameters, the experiment constants it needs
+    (`context`, e.g. k_g), whether it is a force or a geometric change, and the signature it
+    leaves in a free response (used in the report's explanation)."""
+
+    name: str
+    law: Callable
+    params: tuple
+    kind: str = "force"
+    context: tuple = ()
+    explains: str = ""
+    description: str = ""
+
+    @property
+    def param_names(self) -> tuple:
+        return tuple(p.name for p in self.params)
+
+    def units(self) -> dict:
+        return {p.name: p.unit for p in self.params}
+
+
+def _e(name, law, params, explains, kind="force", context=()):
+    return Effect(name=name, law=law, params=tuple(params), kind=kind, context=tuple(context),
+                  explains=explains, description=(law.__doc__ or "").split("\n")[0])
+
+
+LIBRARY: dict[str, Effect] = {e.name: e for e in (
+    _e("viscous_damping", viscous_damping,
+       [Param("c", "N m s/rad", 0.0, 50.0, 1.0)],
+       "amplitude decays exponentially (constant damping ratio)"),
+    _e("coulomb_friction", coulomb_friction,
+       [Param("tau_c", "N m", 0.0, 10.0, 0.3)],
+       "amplitude falls linearly; swings stop off rest"),
+    _e("stiction", stiction,
+       [Param("tau_s", "N m", 0.0, 10.0, 0.3)],
+       "swings stop earlier and further from rest than kinetic friction alone allows"),
+    _e("quadratic_drag", quadratic_drag,
+       [Param("c2", "N m s^2/rad^2", 0.0, 20.0, 0.2)],
+       "large swings damp faster than small ones (decay rate grows with amplitude)"),
+    _e("linear_stiffness", linear_stiffness,
+       [Param("k", "N m/rad", -60.0, 200.0, 3.0, grid=(-0.3, -0.1, 0.1, 0.3, 1.0, 3.0))],
+       "swing frequency differs from the model's at every amplitude"),
+    _e("cubic_stiffness", cubic_stiffness,
+       [Param("k3", "N m/rad^3", -200.0, 500.0, 5.0, grid=(-1.0, -0.3, 0.3, 1.0, 3.0))],
+       "swing frequency changes with amplitude"),
+    _e("com_offset", com_offset,
+       [Param("delta", "rad", -0.5, 0.5, 0.03, grid=(-1.0, -0.3, 0.3, 1.0))],
+       "rest angle shifted; swings asymmetric about the model's rest", kind="geometric",
+       context=("k_g",)),
+    _e("backlash", backlash,
+       [Param("k_b", "N m/rad", 0.0, 200.0, 5.0, grid=(0.3, 1.0, 3.0)),
+        Param("b", "rad", 0.0, 1.0, 0.15, grid=(0.3, 1.0, 2.0))],
+       "free play about rest: small swings at the rigid frequency, large swings stiffer"),
+    _e("rolling_resistance", rolling_resistance,
+       [Param("tau_rr", "N m", 0.0, 20.0, 1.0)],
+       "a constant torque opposes rolling: linear amplitude loss, stops off rest, lower top speed"),
+)}
+
+VOCABULARY = tuple(LIBRARY)
+
+
+def get(name: str) -> Effect:
+    """The vocabulary entry `name` (ValueError naming the vocabulary otherwise)."""
+    try:
+        return LIBRARY[name]
+    except KeyError:
+        raise ValueError(f"unknown effect '{name}' (vocabulary: {', '.join(VOCABULARY)})")
+
+
+def torque(name: str, q, qd, params: dict, context: dict | None = None, m=NP):
+    """Generalised torque of effect `name` at (q, qd) with a parameter dict; `context` holds
+    the experiment constants the effect needs (k_g for com_offset)."""
+    eff = get(name)
+    kwargs = {p: params[p] for p in eff.param_names}
+    for key in eff.context:
+        if context is None or key not in context:
+            raise ValueError(f"effect '{name}' needs the experiment constant '{key}'")
+        kwargs[key] = context[key]
+    return eff.law(q, qd, **kwargs, m=m)
+
+
+def total_torque(effects: dict, q, qd, context: dict | None = None, m=NP):
+    """Sum of several effects: `effects` maps effect name -> parameter dict."""
+    total = 0.0 * qd
+    for name, params in effects.items():
+        total = total + torque(name, q, qd, params, context, m=m)
+    return total
+
+
+@dataclass
+class EffectSet:
+    """A chosen set of effects with their parameter values (what a diagnosis adds)."""
+
+    values: dict = field(default_factory=dict)    # name -> {param: value}
+
+    def torque(self, q, qd, context=None, m=NP):
+        return total_torque(self.values, q, qd, context, m=m)
+
+    @property
+    def names(self) -> list:
+        return list(self.values)
