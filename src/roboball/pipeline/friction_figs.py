@@ -1,0 +1,163 @@
+"""Friction figures and tables: Table I (fitted, with 95% intervals), Fig. 5 (torque vs velocity
+with posterior bands), Fig. 7 / Fig. 8 (stand data overlaid with the fitted laws simulated in
+Drake), corner plots, and the model-comparison table."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ..atomic import write_csv_atomic, write_text_atomic
+from ..physics import friction
+from .figures import plt, save
+
+STAGES = ("fig5", "fig_stand_fits", "table1", "corner_plot")
+LAW_COLOURS = {"viscous": "#1f77b4", "coulomb_viscous": "#ff7f0e", "majd": "#2ca02c"}
+LAW_LABELS = {"viscous": "viscous", "coulomb_viscous": "Coulomb + viscous (eq. 2)", "majd": "Majd (eq. 3)"}
+
+
+def load_fit(path) -> dict:
+    with open(path, encoding="utf-8") as fh:
+        return json.load(fh)
+
+
+def medians(fit: dict) -> dict:
+    return {k: v["median"] for k, v in fit["parameters"].items()}
+
+
+def samples(fit: dict, n: int | None = None, seed: int = 0) -> pd.DataFrame:
+    s = pd.read_csv(fit["samples_csv"])
+    if n is not None and len(s) > n:
+        s = s.sample(n, random_state=seed)
+    return s
+
+
+def fig5(fits: list, out_png: str) -> None:
+    """Torque vs joint velocity of every fitted law, median and 95% posterior band."""
+    fits = [load_fit(f) for f in fits]
+    joints = sorted({f["joint"] for f in fits}, key=lambda j: j != "steer")
+    fig, axes = plt.subplots(1, len(joints), figsize=(6 * len(joints), 4.5), squeeze=False)
+    for ax, joint in zip(axes[0], joints):
+        vmax = 2.0 if joint == "steer" else 4.0
+        v = np.linspace(-vmax, vmax, 801)
+        for f in [f for f in fits if f["joint"] == joint]:
+            law = f["law"]
+            draws = samples(f, 300)
+            taus = np.array([friction.torque(law, v, {**f.get("fixed", {}), **row._asdict()}) for row in
+                             draws[[c for c in draws.columns if c in friction.PARAMS[law]]].itertuples(index=False)])
+            lo, hi = np.percentile(taus, [2.5, 97.5], axis=0)
+            col = LAW_COLOURS[law]
+            ax.fill_between(v, lo, hi, color=col, alpha=0.25)
+            ax.plot(v, friction.torque(law, v, {**f.get("fixed", {}), **medians(f)}), color=col, lw=1.8,
+                    label=f"{LAW_LABELS[law]} (median, 95% band)")
+        ax.axhline(0, color="k", lw=0.6)
+        ax.axvline(0, color="k", lw=0.6)
+        ax.set_xlabel(f"{joint} joint velocity (rad/s)")
+        ax.set_ylabel("friction torque on the joint (N m)")
+        ax.set_title(f"{joint} joint")
+        ax.legend(fontsize=8, loc="upper right")
+    fig.suptitle("Fig. 5: fitted joint-friction laws")
+    save(fig, out_png)
+
+
+def _drake_swing(kind, law, params, q0, duration):
+    from ..sim.plant import SimSpec
+    from ..sim.scenarios import simulate
+
+    joint = "steer" if kind == "steer_stand" else "drive"
+    other = "drive" if joint == "steer" else "steer"
+    spec = SimSpec(kind=kind, friction={joint: law, other: "none"}, friction_params={joint: params})
+    df = simulate(spec, q0, duration, sample_rate_hz=200.0)
+    col = "steer_angle_rad" if kind == "steer_stand" else "drive_angle_rad"
+    return df.time_s.to_numpy(), df[col].to_numpy()
+
+
+def fig_stand_fits(recording: str, releases: str, fits: list, out_png: str, title: str = "") -> None:
+    """Stand data (every release) overlaid with each fitted law simulated in Drake from the
+    fitted release angle (Fig. 7 for the steer stand, Fig. 8 for the drive stand)."""
+    from ..recording import read_recording
+
+    rec = read_recording(recording)
+    with open(releases, encoding="utf-8") as fh:
+        rels = json.load(fh)["releases"]
+    fits = [load_fit(f) for f in fits]
+    sig = rec.main_signal()
+    fig, axes = plt.subplots(len(rels), 1, figsize=(9, 2.6 * len(rels)), squeeze=False)
+    for i, (ax, r) in enumerate(zip(axes[:, 0], rels)):
+        t, y = rec.time, rec.signal(sig)
+        m = (t >= r["t_release_s"] - 0.3) & (t <= r["t_end_s"])
+        ax.plot(t[m] - r["t_release_s"], y[m], "k.", ms=2.5, label="recording")
+        for f in fits:
+            q0 = f.get("release_angles_rad", [r["y_release"]] * len(rels))[i]
+            ts, ys = _drake_swing(rec.kind, f["law"], {**f.get("fixed", {}), **medians(f)}, q0,
+                                  r["t_end_s"] - r["t_release_s"])
+            ax.plot(ts, ys, color=LAW_COLOURS[f["law"]], lw=1.4,
+                    label=f"Drake, {LAW_LABELS[f['law']]} (rmse {f['fit']['rmse_rad'] * 1e3:.0f} mrad)")
+        ax.set_ylabel(f"{sig[:-4].replace('_', ' ')} (rad)")
+        ax.set_title(f"release {i + 1} at {r['t_release_s']:.2f} s", fontsize=9)
+        if i == 0:
+            ax.legend(fontsize=7, loc="upper right")
+    axes[-1, 0].set_xlabel("time since release (s)")
+    fig.suptitle(title or f"{Path(recording).stem}: data and fitted friction laws")
+    save(fig, out_png)
+
+
+def table1(fits: list, out_csv: str, out_md: str, comparison_csv: str = "", robot_yaml: str = "") -> None:
+    """Table I regenerated: point estimates (posterior median, MAP) and 95% intervals, next to
+    the paper's values; plus the model comparison per joint."""
+    from ..config import load_robot
+
+    robot = load_robot(robot_yaml or None)
+    rows = []
+    for path in fits:
+        f = load_fit(path)
+        paper = friction.table1_params(robot, f["law"], f["joint"])
+        for name, p in f["parameters"].items():
+            rows.append({"joint": f["joint"], "law": f["law"], "parameter": name, "median": p["median"],
+                         "map": p.get("map", float("nan")), "ci95_low": p["ci95_low"], "ci95_high": p["ci95_high"],
+                         "unit": friction.UNITS.get(name, ""), "paper_table1": paper.get(name, float("nan")),
+                         "source": f.get("recording", "")})
+    df = pd.DataFrame(rows)
+    write_csv_atomic(df, out_csv)
+    md = ["# Table I: joint-friction parameters (posterior median, 95% interval; paper value)", "",
+          "| recording | joint | law | parameter | median | 95% interval | MAP | paper | unit |",
+          "|---|---|---|---|---|---|---|---|---|"]
+    for r in df.itertuples():
+        md.append(f"| {r.source} | {r.joint} | {r.law} | {r.parameter} | {r.median:.4g} | [{r.ci95_low:.4g}, "
+                  f"{r.ci95_high:.4g}] | {r.map:.4g} | {r.paper_table1:.4g} | {r.unit} |")
+    if comparison_csv:
+        cmp_ = pd.read_csv(comparison_csv)
+        md += ["", "## Model comparison (lower BIC is better)", "", cmp_.to_markdown(index=False, floatfmt=".4g")
+               if hasattr(cmp_, "to_markdown") and _has_tabulate() else _md_table(cmp_)]
+    write_text_atomic(out_md, "\n".join(md) + "\n")
+
+
+def _has_tabulate():
+    try:
+        import tabulate  # noqa: F401
+        return True
+    except ImportError:
+        return False
+
+
+def _md_table(df: pd.DataFrame) -> str:
+    cols = list(df.columns)
+    out = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
+    for row in df.itertuples(index=False):
+        out.append("| " + " | ".join(f"{v:.4g}" if isinstance(v, float) else str(v) for v in row) + " |")
+    return "\n".join(out)
+
+
+def corner_plot(fit: str, out_png: str) -> None:
+    """Corner plot of one posterior (law parameters and the noise level)."""
+    import corner
+
+    f = load_fit(fit)
+    s = samples(f, 20000)
+    labels = [f"{c} ({friction.UNITS.get(c, 'rad')})" for c in s.columns]
+    fig = corner.corner(s.to_numpy(), labels=labels, quantiles=[0.025, 0.5, 0.975], show_titles=True,
+                        title_fmt=".3g", title_kwargs={"fontsize": 8}, label_kwargs={"fontsize": 8})
+    fig.suptitle(f"posterior: {f['law']} friction on the {f['joint']} joint ({f.get('recording', '')})", y=1.02)
+    save(fig, out_png)

@@ -1,0 +1,103 @@
+# Stage 3: joint friction on the stand logs: least squares, then emcee posteriors (HDF5 chains,
+# resumable), model comparison; Table I, Fig. 5, 7, 8, corner plots.  The testbed's steer and
+# drive stands, and the real steer-stand log when present.
+import json
+
+PRIORS = config.get("_priors") or __import__("yaml").safe_load(open("configs/priors.yaml"))
+STAND = {("testbed", "steer"): "steer_stand_r1", ("testbed", "drive"): "drive_stand_r1",
+         ("real", "steer"): "real_steer_stand"}
+FITS = [("testbed", j, law) for j, law in FRICTION_MODELS]
+if REAL_ON:
+    FITS += [("real", "steer", law) for law in config["friction"]["steer_laws"]]
+
+
+def fit_json(dataset, joint, law):
+    return f"results/friction/{dataset}/{joint}_{law}.json"
+
+
+rule friction_fit:
+    input:
+        csv=lambda w: f"results/ingest/{STAND[(w.dataset, w.joint)]}.csv",
+        releases=lambda w: f"results/ingest/{STAND[(w.dataset, w.joint)]}.releases.json",
+    output:
+        json="results/friction/{dataset}/{joint}_{law}.json",
+        samples="results/friction/{dataset}/{joint}_{law}.samples.csv",
+    params:
+        # Only this model's prior block: editing another model's prior does not rerun this fit.
+        prior=lambda w: json.dumps(PRIORS[w.joint][w.law], sort_keys=True),
+        chain="results/friction/{dataset}/{joint}_{law}.h5",
+        walkers=config["friction"]["walkers"],
+        multiple=config["friction"]["autocorr_multiple"],
+        max_steps=config["friction"]["max_steps"],
+        seed=config["seed"],
+    wildcard_constraints: dataset="testbed|real", joint="steer|drive"
+    threads: 1
+    log: "results/logs/friction/{dataset}/{joint}_{law}.log"
+    benchmark: "results/benchmarks/friction/{dataset}/{joint}_{law}.tsv"
+    shell:
+        "{ROBOBALL} friction-fit --recording {input.csv} --releases {input.releases} --joint {wildcards.joint} "
+        "--law {wildcards.law} --prior-json '{params.prior}' --chain {params.chain} --walkers {params.walkers} "
+        "--autocorr-multiple {params.multiple} --max-steps {params.max_steps} --seed {params.seed} "
+        "--out-json {output.json} --out-samples {output.samples} > {log} 2>&1"
+
+
+rule friction_comparison:
+    input: lambda w: [fit_json(d, j, l) for d, j, l in FITS if d == w.dataset and j == w.joint]
+    output: "results/friction/{dataset}/{joint}_comparison.csv"
+    log: "results/logs/friction/{dataset}/{joint}_comparison.log"
+    shell: "{ROBOBALL} friction-comparison --fits {input} --out-csv {output} > {log} 2>&1"
+
+
+rule table1:
+    input:
+        fits=[fit_json(*f) for f in FITS],
+        comparison="results/friction/testbed/steer_comparison.csv",
+    output:
+        csv=f"{PF}/table1_friction.csv",
+        md=f"{PF}/table1_friction.md",
+    log: "results/logs/table1.log"
+    shell:
+        "{ROBOBALL} table1 --fits {input.fits} --comparison-csv {input.comparison} "
+        "--out-csv {output.csv} --out-md {output.md} > {log} 2>&1"
+
+
+rule fig5:
+    input: [fit_json(*f) for f in FITS if f[0] == "testbed"]
+    output:
+        png=report(f"{PF}/fig5_friction_laws.png", category="2 Friction", caption="../report/fig5.rst"),
+        pdf=f"{PF}/fig5_friction_laws.pdf",
+    log: "results/logs/fig5.log"
+    shell: "{ROBOBALL} fig5 --fits {input} --out-png {output.png} > {log} 2>&1"
+
+
+rule fig_stand:
+    input:
+        csv=lambda w: f"results/ingest/{STAND[(w.dataset, w.joint)]}.csv",
+        releases=lambda w: f"results/ingest/{STAND[(w.dataset, w.joint)]}.releases.json",
+        fits=lambda w: [fit_json(d, j, l) for d, j, l in FITS if d == w.dataset and j == w.joint],
+    output:
+        png=report(f"{PF}/fig{{num}}_{{dataset}}_{{joint}}_fits.png", category="2 Friction", caption="../report/fig78.rst"),
+        pdf=f"{PF}/fig{{num}}_{{dataset}}_{{joint}}_fits.pdf",
+    params:
+        title=lambda w: f"Fig. {w.num}: {w.joint} stand ({w.dataset}): data and fitted friction simulated in Drake",
+    wildcard_constraints: num="7|8", dataset="testbed|real", joint="steer|drive"
+    log: "results/logs/fig{num}_{dataset}_{joint}.log"
+    shell:
+        "{ROBOBALL} fig-stand-fits --recording {input.csv} --releases {input.releases} --fits {input.fits} "
+        "--title '{params.title}' --out-png {output.png} > {log} 2>&1"
+
+
+rule corner:
+    input: "results/friction/{dataset}/{joint}_{law}.json"
+    output:
+        png=report(f"{PF}/corner/corner_{{dataset}}_{{joint}}_{{law}}.png", category="2 Friction", caption="../report/corner.rst"),
+        pdf=f"{PF}/corner/corner_{{dataset}}_{{joint}}_{{law}}.pdf",
+    log: "results/logs/corner/{dataset}_{joint}_{law}.log"
+    shell: "{ROBOBALL} corner-plot --fit {input} --out-png {output.png} > {log} 2>&1"
+
+
+FIGURES += [f"{PF}/fig5_friction_laws.png", f"{PF}/table1_friction.md",
+            f"{PF}/fig7_testbed_steer_fits.png", f"{PF}/fig8_testbed_drive_fits.png"]
+FIGURES += [f"{PF}/corner/corner_{d}_{j}_{l}.png" for d, j, l in FITS]
+if REAL_ON:
+    FIGURES += [f"{PF}/fig7_real_steer_fits.png"]
