@@ -155,7 +155,7 @@ def register_command(fn):
 
 def _load_plugins():
     import importlib
-    for mod in ("roboball.diagnose.cli", "roboball.pipeline_cli"):
+    for mod in ("roboball.diagnose.cli", "roboball.pipeline_cli", "roboball.pipeline.params_report"):
         try:
             importlib.import_module(mod)
         except ModuleNotFoundError as exc:
