@@ -29,6 +29,8 @@ import numpy as np
 __all__ = [
     "atomic_write",
     "write_text_atomic",
+    "write_texts_atomic",
+    "savefig_atomic",
     "write_bytes_atomic",
     "write_json_atomic",
     "write_csv_atomic",
@@ -88,6 +90,51 @@ def write_text_atomic(path: str | os.PathLike, text: str) -> Path:
     with atomic_write(path, "w") as fh:
         fh.write(text)
     return Path(path)
+
+
+def write_texts_atomic(files: list[tuple[str | os.PathLike, str]]) -> list[Path]:
+    """Write several files that only make sense together (a recording CSV and its sidecar) so
+    that an interruption never leaves a mix of old and new files that reads as a valid set.
+
+    All contents go to temporary files first (fsync'ed).  Then the existing targets after the
+    first are deleted, the first is moved into place, and the others follow.  Every state a crash
+    can leave is either the old set, the new set, or a set with a file missing (which readers
+    refuse), never new data with old metadata.  On an exception before the renames nothing
+    changes.  Returns the paths."""
+    staged: list[tuple[str, Path]] = []
+    try:
+        for path, text in files:
+            path = Path(path)
+            directory = path.parent if str(path.parent) else Path(".")
+            directory.mkdir(parents=True, exist_ok=True)
+            fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
+            staged.append((tmp_name, path))
+            with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
+                fh.write(text)
+                fh.flush()
+                os.fsync(fh.fileno())
+            os.chmod(tmp_name, 0o666 & ~_current_umask())
+        for _, path in staged[1:]:
+            with contextlib.suppress(FileNotFoundError):
+                os.unlink(path)
+        for tmp_name, path in staged:
+            os.replace(tmp_name, path)
+    except BaseException:
+        for tmp_name, _ in staged:
+            with contextlib.suppress(FileNotFoundError):
+                os.unlink(tmp_name)
+        raise
+    return [path for _, path in staged]
+
+
+def savefig_atomic(fig, path: str | os.PathLike, **savefig_kwargs) -> Path:
+    """``fig.savefig`` through a temporary file next to `path`, renamed into place when complete
+    (the format comes from the suffix unless ``format=`` is given).  Returns the path."""
+    path = Path(path)
+    fmt = savefig_kwargs.pop("format", None) or path.suffix.lstrip(".") or None
+    with atomic_write(path, "wb") as fh:
+        fig.savefig(fh, format=fmt, **savefig_kwargs)
+    return path
 
 
 def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> Path:

@@ -27,7 +27,7 @@ from typing import Any, Mapping
 import numpy as np
 import pandas as pd
 
-from .atomic import csv_text, json_dumps_stable, write_text_atomic
+from .atomic import csv_text, json_dumps_stable, write_texts_atomic
 from .errors import RoboballError
 
 __all__ = [
@@ -617,6 +617,7 @@ def write_recording(
     out = pd.DataFrame({h: values[:, j] for j, h in enumerate(header)})
     csv_body = csv_text(out, float_format=float_format)
     json_body = json_dumps_stable(rec.meta)
-    write_text_atomic(path, csv_body)
-    write_text_atomic(sidecar_path(path), json_body)
+    # One step for the pair: a crash can leave a CSV without sidecar (refused by the reader),
+    # never new data next to an old sidecar.
+    write_texts_atomic([(path, csv_body), (sidecar_path(path), json_body)])
     return path
