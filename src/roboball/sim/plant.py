@@ -212,6 +212,10 @@ def build(spec: SimSpec, sample_period: float | None = None, meshcat=None) -> Bu
         raise ValueError(f"unknown kind '{spec.kind}' (choose from {', '.join(KINDS)})")
     if spec.contact not in CONTACTS:
         raise ValueError(f"unknown contact model '{spec.contact}' (choose from {', '.join(CONTACTS)})")
+    if spec.pressure_schedule is not None and spec.contact == "hydroelastic":
+        raise ValueError("hydroelastic contact properties cannot follow a pressure schedule inside one step: "
+                         "run the schedule with roboball.sim.pressure.simulate_schedule (properties replaced "
+                         "between segments)")
     robot = spec.resolved_robot()
     lay = _LAYOUT[spec.kind]
     tags = shell_tags(robot, spec)
