@@ -228,3 +228,11 @@ def test_fig_s1_stage_refuses_a_constant_schedule_and_missing_regression(tmp_pat
     with pytest.raises(RoboballError, match="shell regression table not found"):
         deflating_ramp(regression=str(tmp_path / "none.csv"), out_png=str(tmp_path / "f.png"))
     assert not (tmp_path / "f.png").exists()
+
+
+def test_plain_build_refuses_a_hydroelastic_schedule():
+    """Hydroelastic properties are not inputs: a schedule must go through simulate_schedule."""
+    spec = SimSpec(kind="ramp", contact="hydroelastic", pressure_kpa=HI,
+                   pressure_schedule=PressureSchedule.linear(HI, LO, 0.0, 1.0), shell_laws=LAWS)
+    with pytest.raises(ValueError, match="simulate_schedule"):
+        build(spec)
