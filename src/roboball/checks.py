@@ -12,6 +12,9 @@ a second look here:
   hanging links' centre of mass is below the shell centre (otherwise ``omega_n`` is imaginary);
 * both stand pendulums hang below their joint axes (their restoring ``m g d > 0``).
 
+The friction priors (``configs/priors.yaml``) get the cross-field checks a schema cannot express:
+every law lists exactly its parameters, ``low < high``, and the starting value inside the bounds.
+
 The pipeline (Snakefile) and ``roboball simulate`` call these checks before running anything;
 ``roboball check-config`` runs them on demand.  Every failure is a one-line
 :class:`~roboball.errors.ConfigError` naming the file, the field and what to do.
@@ -23,7 +26,7 @@ from pathlib import Path
 from .config import SCHEMA_DIR, RobotFacts, load_yaml
 from .errors import ConfigError
 
-__all__ = ["check_robot", "check_config_dir", "load_checked_robot"]
+__all__ = ["check_robot", "check_priors", "check_config_dir", "load_checked_robot"]
 
 
 def check_robot(robot: RobotFacts) -> RobotFacts:
@@ -56,6 +59,35 @@ def check_robot(robot: RobotFacts) -> RobotFacts:
     return robot
 
 
+def check_priors(data: dict, source: str) -> dict:
+    """Cross-field checks of the friction priors (the schema checks each value): every law lists
+    exactly the parameters it fits, ``low < high``, and ``start`` (and a lognormal's median)
+    lies inside the bounds.  Returns `data`."""
+    from .physics.friction import PARAMS
+
+    for joint, laws in data.items():
+        for law, params in laws.items():
+            wanted = {p for p in PARAMS[law] if p != "v_tol"}   # v_tol is fixed, not fitted
+            where = f"{source}: field '{joint}.{law}'"
+            missing, extra = sorted(wanted - set(params)), sorted(set(params) - wanted)
+            if missing:
+                raise ConfigError(f"{where}: no prior for {', '.join(missing)}; give each parameter of the "
+                                  f"{law} law a prior ({', '.join(sorted(wanted))})")
+            if extra:
+                raise ConfigError(f"{where}: {', '.join(extra)} is not a parameter of the {law} law "
+                                  f"({', '.join(sorted(wanted))}); remove it")
+            for name, pr in params.items():
+                lo, hi = pr.get("low", 0.0), pr.get("high", float("inf"))
+                field = f"{source}: field '{joint}.{law}.{name}'"
+                if not lo < hi:
+                    raise ConfigError(f"{field}: low {lo:g} is not below high {hi:g}; swap or fix the bounds")
+                for key in ("start", "median"):
+                    if key in pr and not lo < pr[key] < hi:
+                        raise ConfigError(f"{field}: {key} {pr[key]:g} is outside the bounds ({lo:g}, {hi:g}); "
+                                          "move it inside")
+    return data
+
+
 def load_checked_robot(path: str | Path, schema: str | Path | None = None) -> RobotFacts:
     """Load robot facts from `path`, validate them against `schema` (default: the
     ``schema/robot.schema.yaml`` next to the file, else the package's) and check their physics."""
@@ -85,7 +117,9 @@ def check_config_dir(config_dir: str | Path, exclude: tuple[str, ...] = ()) -> l
         if path.name == "robot.yaml":
             load_checked_robot(path, schema if schema.exists() else None)
         elif schema.exists():
-            load_yaml(path, schema=str(schema.resolve()))
+            data = load_yaml(path, schema=str(schema.resolve()))
+            if path.name == "priors.yaml":
+                check_priors(data, str(path))
         else:
             load_yaml(path)
         checked.append(path)
