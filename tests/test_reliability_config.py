@@ -5,11 +5,14 @@ anything runs, through the real entry points.
   coefficients, unknown keys, wrong types, an impossible inertia, a centre of mass above the
   shell centre; each a one-line error naming file and field, exit code 2, nothing written.
 * `roboball check-config`: config.yaml with a time step above 10 ms, an unknown key, a wrong type.
-* `snakemake -n`: the same mistakes in config.yaml or robot.yaml stop the workflow while it is
-  parsed, before the DAG is built.
+* `roboball check-config` on friction priors: bounds below zero, unknown laws and keys, wrong
+  types, a law's parameter missing or foreign, swapped bounds, a start outside them.
+* `snakemake -n`: the same mistakes in config.yaml, robot.yaml or priors.yaml stop the workflow
+  while it is parsed, before the DAG is built.
 """
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import subprocess
@@ -156,4 +159,74 @@ def test_snakemake_refuses_bad_configs_before_any_job(tmp_path, case):
     text = r.stdout + r.stderr
     assert all(w in text for w in expected), text[-2000:]
     assert "Building DAG of jobs" not in text, "the DAG was built before the configs were checked"
+    assert not (work / "results").exists()
+
+
+# --------------------------------------------------------------------------------------------
+# friction priors (configs/priors.yaml)
+# --------------------------------------------------------------------------------------------
+GOOD_PRIORS = {
+    "steer": {"viscous": {"c": {"type": "loguniform", "low": 0.001, "high": 10.0, "start": 0.104}},
+              "majd": {p: {"type": "loguniform", "low": 0.001, "high": 50.0, "start": 1.0}
+                       for p in ("f_w", "f_c", "sigma", "omega_c", "n")}},
+    "drive": {"coulomb_viscous": {"mu_s": {"type": "uniform", "low": 0.0, "high": 5.0, "start": 0.7},
+                                  "mu_d": {"type": "lognormal", "median": 0.6, "sigma_log": 0.5, "start": 0.65},
+                                  "c": {"type": "loguniform", "low": 0.001, "high": 10.0, "start": 0.1}}},
+}
+BAD_PRIORS = {  # case -> (edit, field named, words)
+    "negative_low": (lambda d: d["drive"]["coulomb_viscous"]["mu_s"].update(low=-1.0),
+                     "drive.coulomb_viscous.mu_s.low", "less than the minimum of 0"),
+    "loguniform_from_zero": (lambda d: d["steer"]["viscous"]["c"].update(low=0.0),
+                             "steer.viscous.c.low", "less than or equal to the minimum of 0"),
+    "unknown_law": (lambda d: d["steer"].update(lugre={"c": {"type": "uniform", "low": 0, "high": 1, "start": 0.5}}),
+                    "steer", "'lugre' was unexpected"),
+    "unknown_key": (lambda d: d["steer"]["viscous"]["c"].update(hgih=3.0), "steer.viscous.c", "'hgih' was unexpected"),
+    "wrong_type": (lambda d: d["steer"]["viscous"]["c"].update(start="0.1"), "steer.viscous.c.start",
+                   "is not of type 'number'"),
+    "missing_parameter": (lambda d: d["steer"]["majd"].pop("omega_c"), "steer.majd", "no prior for omega_c"),
+    "foreign_parameter": (lambda d: d["steer"]["viscous"].update(mu_d=dict(d["steer"]["viscous"]["c"])),
+                          "steer.viscous", "mu_d is not a parameter of the viscous law"),
+    "bounds_swapped": (lambda d: d["steer"]["viscous"]["c"].update(low=20.0), "steer.viscous.c", "is not below high"),
+    "start_outside": (lambda d: d["steer"]["viscous"]["c"].update(start=30.0), "steer.viscous.c",
+                      "start 30 is outside the bounds"),
+}
+
+
+def priors_dir(tmp_path: Path, case: str | None) -> Path:
+    cfg = tmp_path / "configs"
+    shutil.copytree(REPO / "configs", cfg)
+    data = json.loads(json.dumps(GOOD_PRIORS))
+    if case is not None:
+        BAD_PRIORS[case][0](data)
+    (cfg / "priors.yaml").write_text(yaml.safe_dump(data, sort_keys=False))
+    return cfg
+
+
+def test_good_priors_pass(tmp_path):
+    r = roboball("check-config", "--config-dir", priors_dir(tmp_path, None))
+    assert r.returncode == 0, r.stderr
+    assert "priors.yaml" in r.stdout
+
+
+@pytest.mark.parametrize("case", sorted(BAD_PRIORS))
+def test_check_config_refuses_bad_priors(tmp_path, case):
+    cfg = priors_dir(tmp_path, case)
+    r = roboball("check-config", "--config-dir", cfg)
+    assert r.returncode == 2, r.stdout + r.stderr
+    msg = one_error_line(r)
+    _, field, words = BAD_PRIORS[case]
+    assert msg.startswith(f"{cfg / 'priors.yaml'}: field '{field}'"), msg
+    assert words in msg, msg
+
+
+def test_snakemake_refuses_bad_priors_before_any_job(tmp_path):
+    work = _workflow_copy(tmp_path)
+    bad = priors_dir(tmp_path / "bad", "start_outside")
+    shutil.copy2(bad / "priors.yaml", work / "configs" / "priors.yaml")
+    env = {k: v for k, v in os.environ.items() if k != "ROBOBALL_CONFIG_DIR"}
+    r = subprocess.run([SNAKEMAKE, "-n", "--cores", "1", "results/identify/shell_regression.csv"], cwd=work,
+                       capture_output=True, text=True, env=env, timeout=120)
+    assert r.returncode != 0
+    text = r.stdout + r.stderr
+    assert "priors.yaml: field 'steer.viscous.c': start 30 is outside the bounds" in text, text[-2000:]
     assert not (work / "results").exists()
