@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..atomic import write_json_atomic, write_text_atomic
+from ..atomic import savefig_atomic, write_json_atomic, write_text_atomic
 from ..physics import effects as fx
 from .decide import Diagnosis
 from .drake import rmse as drake_rmse
@@ -132,7 +132,7 @@ def _figures(d: Diagnosis, out: Path, drake_base, drake_aug, located_base, locat
     fig.suptitle(f"{prep.label}: {d.verdict}" + (f" (+ {', '.join(d.chosen)})" if d.chosen else ""), fontsize=10)
     fig.tight_layout()
     f = out / "overlay.png"
-    fig.savefig(f, dpi=110)
+    savefig_atomic(fig, f, dpi=110)
     plt.close(fig)
     files.append(f.name)
 
@@ -152,7 +152,7 @@ def _figures(d: Diagnosis, out: Path, drake_base, drake_aug, located_base, locat
     ax.set_title("residual by regime (regimes overlap)", fontsize=10)
     fig.tight_layout()
     f = out / "regimes.png"
-    fig.savefig(f, dpi=110)
+    savefig_atomic(fig, f, dpi=110)
     plt.close(fig)
     files.append(f.name)
 
@@ -170,7 +170,7 @@ def _figures(d: Diagnosis, out: Path, drake_base, drake_aug, located_base, locat
                  fontsize=9)
     fig.tight_layout()
     f = out / "windows.png"
-    fig.savefig(f, dpi=110)
+    savefig_atomic(fig, f, dpi=110)
     plt.close(fig)
     files.append(f.name)
     return files
