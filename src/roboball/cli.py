@@ -6,6 +6,7 @@ exit code; a traceback means a bug in roboball, not in the user's input.
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 
@@ -57,6 +58,11 @@ def cmd_simulate(args) -> int:
         raise RoboballError(f"--pressure-kpa is required for {args.kind} with contact '{args.contact}'")
     if args.pressure_kpa is not None and not (0 < args.pressure_kpa <= 500):
         raise RoboballError(f"--pressure-kpa {args.pressure_kpa}: must be in (0, 500] kPa gauge")
+    if abs(args.release) > math.pi:
+        raise RoboballError(f"--release {args.release:g}: beyond pi rad, looks like degrees; give the angle in radians")
+    if args.sample_rate_hz * args.dt > 1.0 + 1e-9:
+        raise RoboballError(f"--sample-rate-hz {args.sample_rate_hz:g}: faster than the time step ({1 / args.dt:g} Hz "
+                            f"at --dt {args.dt:g}); lower the rate or the step")
     robot = load_checked_robot(ROBOT_YAML)   # schema + physics, before anything runs
     shell = ShellParams(zeta=args.zeta, omega_n=args.omega_n, hydro_modulus=args.hydro_modulus,
                         hydro_dissipation=args.hydro_dissipation)
