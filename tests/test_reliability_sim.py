@@ -110,3 +110,18 @@ def test_wall_clock_budget_from_the_environment(monkeypatch):
         simulate(SimSpec(kind="steer_stand"), 0.3, 2.0)
     monkeypatch.setenv("ROBOBALL_SIM_MAX_WALL_S", "600")
     assert len(simulate(SimSpec(kind="steer_stand"), 0.3, 1.0)) == 101
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--release", "45"], "--release 45: beyond pi rad, looks like degrees"),
+    (["--sample-rate-hz", "5000"], "faster than the time step (1000 Hz"),
+    (["--dt", "0.05"], "time step above 10 ms"),
+    (["--duration", "-1"], "--duration must be positive"),
+    (["--max-wall-s", "soon"], "--max-wall-s must be a number"),
+])
+def test_simulate_bad_flags_refused_before_running(tmp_path, args, words):
+    out = tmp_path / "x.csv"
+    r = roboball("simulate", "steer_stand", *args, "--out", out)
+    assert r.returncode == 2, r.stderr
+    assert "Traceback" not in r.stderr and r.stderr.count("\n") == 1 and words in r.stderr, r.stderr
+    assert not out.exists()
