@@ -20,9 +20,9 @@ except RoboballError as exc:
 include: "workflow/rules/common.smk"
 include: "workflow/rules/ingest.smk"
 include: "workflow/rules/shell.smk"
-# friction.smk: added with the friction fits
 include: "workflow/rules/ramp.smk"
 include: "workflow/rules/figures.smk"
+include: "workflow/rules/friction.smk"
 include: "workflow/rules/beyond.smk"
 
 report: "workflow/report/workflow.rst"

@@ -30,7 +30,7 @@ rule friction_fit:
         multiple=config["friction"]["autocorr_multiple"],
         max_steps=config["friction"]["max_steps"],
         seed=config["seed"],
-    wildcard_constraints: dataset="testbed|real", joint="steer|drive"
+    wildcard_constraints: dataset="testbed|real", joint="steer|drive", law="viscous|coulomb_viscous|majd"
     threads: 1
     log: "results/logs/friction/{dataset}/{joint}_{law}.log"
     benchmark: "results/benchmarks/friction/{dataset}/{joint}_{law}.tsv"
@@ -92,6 +92,7 @@ rule corner:
     output:
         png=report(f"{PF}/corner/corner_{{dataset}}_{{joint}}_{{law}}.png", category="2 Friction", caption="../report/corner.rst"),
         pdf=f"{PF}/corner/corner_{{dataset}}_{{joint}}_{{law}}.pdf",
+    wildcard_constraints: dataset="testbed|real", joint="steer|drive", law="viscous|coulomb_viscous|majd"
     log: "results/logs/corner/{dataset}_{joint}_{law}.log"
     shell: "{ROBOBALL} corner-plot --fit {input} --out-png {output.png} > {log} 2>&1"
 

@@ -6,8 +6,8 @@ rule ramp_sim:
         csv="results/ingest/{stem}.csv",
         releases="results/ingest/{stem}.releases.json",
         regression="results/identify/shell_regression.csv",
-        steer="results/friction/steer_majd.json",
-        drive="results/friction/drive_majd.json",
+        steer="results/friction/testbed/steer_majd.json",
+        drive="results/friction/testbed/drive_majd.json",
     output:
         pme="results/ramp/{contact}/{stem}.csv",
         trace="results/ramp/{contact}/{stem}.trace.csv",

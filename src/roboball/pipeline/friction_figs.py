@@ -156,7 +156,7 @@ def corner_plot(fit: str, out_png: str) -> None:
 
     f = load_fit(fit)
     s = samples(f, 20000)
-    labels = [f"{c} ({friction.UNITS.get(c, 'rad')})" for c in s.columns]
+    labels = [f"{c} ({'rad' if c == 'noise_rad' else friction.UNITS.get(c, '-')})" for c in s.columns]
     fig = corner.corner(s.to_numpy(), labels=labels, quantiles=[0.025, 0.5, 0.975], show_titles=True,
                         title_fmt=".3g", title_kwargs={"fontsize": 8}, label_kwargs={"fontsize": 8})
     fig.suptitle(f"posterior: {f['law']} friction on the {f['joint']} joint ({f.get('recording', '')})", y=1.02)

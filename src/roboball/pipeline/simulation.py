@@ -144,7 +144,7 @@ def ramp_sim(recording: str, releases: str, regression: str, contact: str, out_c
             fp = {}
             for joint, s in samples.items():
                 i = int(rng.integers(len(s)))
-                fp[joint] = {c: float(s[c].iloc[i]) for c in s.columns if c != "sigma"}
+                fp[joint] = {c: float(s[c].iloc[i]) for c in s.columns if c != "noise_rad"}
             draws.append(pme(w_e, run(fp)))
         row.update(pme_draw_low=float(np.percentile(draws, 2.5)), pme_draw_high=float(np.percentile(draws, 97.5)),
                    pme_draw_median=float(np.median(draws)))

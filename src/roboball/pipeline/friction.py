@@ -1,0 +1,28 @@
+"""Friction stages: one fit per (recording, joint, law), and the model comparison."""
+from __future__ import annotations
+
+import json
+
+from ..atomic import write_csv_atomic, write_json_atomic
+
+STAGES = ("friction_fit", "friction_comparison")
+
+
+def friction_fit(recording: str, releases: str, joint: str, law: str, prior_json: str, chain: str,
+                 out_json: str, out_samples: str, walkers: int = 32, autocorr_multiple: float = 50.0,
+                 max_steps: int = 20000, seed: int = 0) -> None:
+    """Least squares then emcee posterior of `law` on `joint` (HDF5 chain resumes if present)."""
+    from ..identify.friction_fit import fit
+
+    res, samples = fit(recording, releases, joint, law, json.loads(prior_json), chain, walkers=walkers,
+                       autocorr_multiple=autocorr_multiple, max_steps=max_steps, seed=seed)
+    write_csv_atomic(samples, out_samples)
+    res["samples_csv"] = out_samples
+    write_json_atomic(out_json, res)
+
+
+def friction_comparison(fits: list, out_csv: str) -> None:
+    """Residual, log-likelihood and BIC of each law fitted to the same recording."""
+    from ..identify.friction_fit import comparison
+
+    write_csv_atomic(comparison(fits), out_csv)
