@@ -24,7 +24,16 @@ def load_fit(path) -> dict:
 
 
 def medians(fit: dict) -> dict:
-    return {k: v["median"] for k, v in fit["parameters"].items()}
+    """Posterior medians of the law's own parameters."""
+    return {k: v["median"] for k, v in fit["parameters"].items() if k in friction.PARAMS[fit["law"]]}
+
+
+def release_angles(fit: dict) -> list | None:
+    """Fitted release angles, in release order (entries named like release_1_rad), if any."""
+    if "release_angles_rad" in fit:
+        return fit["release_angles_rad"]
+    keys = sorted((k for k in fit["parameters"] if k.startswith("release")), key=lambda k: int("".join(c for c in k if c.isdigit()) or 0))
+    return [fit["parameters"][k]["median"] for k in keys] or None
 
 
 def samples(fit: dict, n: int | None = None, seed: int = 0) -> pd.DataFrame:
@@ -90,7 +99,8 @@ def fig_stand_fits(recording: str, releases: str, fits: list, out_png: str, titl
         m = (t >= r["t_release_s"] - 0.3) & (t <= r["t_end_s"])
         ax.plot(t[m] - r["t_release_s"], y[m], "k.", ms=2.5, label="recording")
         for f in fits:
-            q0 = f.get("release_angles_rad", [r["y_release"]] * len(rels))[i]
+            angles = release_angles(f)
+            q0 = angles[i] if angles and i < len(angles) else r["y_release"]
             ts, ys = _drake_swing(rec.kind, f["law"], {**f.get("fixed", {}), **medians(f)}, q0,
                                   r["t_end_s"] - r["t_release_s"])
             ax.plot(ts, ys, color=LAW_COLOURS[f["law"]], lw=1.4,
@@ -115,6 +125,8 @@ def table1(fits: list, out_csv: str, out_md: str, comparison_csv: str = "", robo
         f = load_fit(path)
         paper = friction.table1_params(robot, f["law"], f["joint"])
         for name, p in f["parameters"].items():
+            if name.startswith("release"):
+                continue
             rows.append({"joint": f["joint"], "law": f["law"], "parameter": name, "median": p["median"],
                          "map": p.get("map", float("nan")), "ci95_low": p["ci95_low"], "ci95_high": p["ci95_high"],
                          "unit": friction.UNITS.get(name, ""), "paper_table1": paper.get(name, float("nan")),

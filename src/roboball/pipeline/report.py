@@ -52,12 +52,17 @@ def uncertainty_report(fits: list, comparisons: list, regression: str, pme_table
         with open(path, encoding="utf-8") as fh:
             f = json.load(fh)
         for name, p in f["parameters"].items():
+            if name.startswith("release"):
+                continue
             rows.append({"recording": f.get("recording", ""), "joint": f["joint"], "law": f["law"], "parameter": name,
                          "median": p["median"], "ci95_low": p["ci95_low"], "ci95_high": p["ci95_high"]})
         c = f["convergence"]
+        ess = c.get("ess")
         conv.append({"recording": f.get("recording", ""), "joint": f["joint"], "law": f["law"],
-                     "steps": c["steps"], "max_tau_steps": c["max_tau"], "steps_over_tau": c["steps"] / max(c["max_tau"], 1e-9),
-                     "acceptance": c["acceptance_fraction"], "ess_min": c["ess_min"],
+                     "steps": c.get("n_steps", c.get("steps")), "max_tau_steps": c.get("tau_max_steps", c.get("max_tau")),
+                     "chain_over_tau": c.get("chain_over_tau", float("nan")),
+                     "acceptance": c.get("acceptance_fraction_mean", c.get("acceptance_fraction")),
+                     "ess_min": min(v for v in ess.values() if v) if isinstance(ess, dict) and any(ess.values()) else c.get("ess_min", float("nan")),
                      "converged": "yes" if c["converged"] else "NO", "rmse_rad": f["fit"]["rmse_rad"]})
     parts.append(_table(pd.DataFrame(rows)))
     parts.append("<h3>Convergence</h3><p>A chain counts as converged when its length is at least "

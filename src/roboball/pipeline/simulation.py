@@ -88,12 +88,18 @@ def pme(w_measured, w_sim, floor: float = SPEED_FLOOR_RAD_S) -> float:
     return float(100.0 * np.mean((w_s[ok] - w_e[ok]) / w_e[ok]))
 
 
+def friction_params_of(law):
+    from ..physics import friction
+    return friction.PARAMS[law]
+
+
 def _majd_from_fit(path):
+    """Posterior medians of the fitted Majd law (other entries, noise and release angles, dropped)."""
     if not path:
         return None
     with open(path, encoding="utf-8") as fh:
         d = json.load(fh)
-    return {k: v["median"] for k, v in d["parameters"].items()}
+    return {k: v["median"] for k, v in d["parameters"].items() if k in friction_params_of("majd")}
 
 
 def ramp_sim(recording: str, releases: str, regression: str, contact: str, out_csv: str,
@@ -144,7 +150,7 @@ def ramp_sim(recording: str, releases: str, regression: str, contact: str, out_c
             fp = {}
             for joint, s in samples.items():
                 i = int(rng.integers(len(s)))
-                fp[joint] = {c: float(s[c].iloc[i]) for c in s.columns if c != "noise_rad"}
+                fp[joint] = {c: float(s[c].iloc[i]) for c in s.columns if c in friction_params_of("majd")}
             draws.append(pme(w_e, run(fp)))
         row.update(pme_draw_low=float(np.percentile(draws, 2.5)), pme_draw_high=float(np.percentile(draws, 97.5)),
                    pme_draw_median=float(np.median(draws)))
