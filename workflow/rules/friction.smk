@@ -102,3 +102,27 @@ FIGURES += [f"{PF}/fig5_friction_laws.png", f"{PF}/table1_friction.md",
 FIGURES += [f"{PF}/corner/corner_{d}_{j}_{l}.png" for d, j, l in FITS]
 if REAL_ON:
     FIGURES += [f"{PF}/fig7_real_steer_fits.png"]
+
+
+COMPARISONS = ["results/friction/testbed/steer_comparison.csv"] + (["results/friction/real/steer_comparison.csv"] if REAL_ON else [])
+
+
+rule uncertainty_report:
+    input:
+        fits=[fit_json(*f) for f in FITS],
+        comparisons=COMPARISONS,
+        regression="results/identify/shell_regression.csv",
+        pme=f"{PF}/table_pme.csv",
+        sweep=f"{PF}/table_sweep.md",
+        figures=[f"{PF}/fig5_friction_laws.png", f"{PF}/fig7_testbed_steer_fits.png", f"{PF}/fig8_testbed_drive_fits.png",
+                 f"{PF}/fig10_shell_dynamics.png", f"{PF}/fig11_hydro_sensitivity.png", f"{PF}/fig13_ramp_pme.png",
+                 f"{PF}/fig14_ramp_pme_mean.png"] + ([f"{PF}/fig7_real_steer_fits.png"] if REAL_ON else []),
+    output: report(f"{PF}/uncertainty_report.html", category="0 Report", caption="../report/uncertainty.rst")
+    log: "results/logs/uncertainty_report.log"
+    shell:
+        "{ROBOBALL} uncertainty-report --fits {input.fits} --comparisons {input.comparisons} "
+        "--regression {input.regression} --pme-table {input.pme} --sweep-md {input.sweep} "
+        "--figures {input.figures} --out-html {output} > {log} 2>&1"
+
+
+FIGURES += [f"{PF}/uncertainty_report.html"]
