@@ -3,8 +3,8 @@
 Every file of the bad-recording corpus (tests/bad_recordings/) given to `roboball stage ingest`
 (the pipeline's ingest) gives its expected one-line error, exit code 2, advice on what to do, no
 traceback and no output file.  The accepted quirks (CRLF, byte-order mark, blank lines, duplicate
-stamps) pass validation, and real campaign recordings rewritten with CRLF line endings and a BOM
-ingest to exactly the same outputs as the originals.  Config and simulation faults are in
+stamps) pass validation, and a real campaign recording rewritten with CRLF line endings and a BOM
+ingests to exactly the same outputs as the original.  Config and simulation faults are in
 test_reliability_config.py and test_reliability_sim.py.
 """
 from __future__ import annotations
@@ -72,14 +72,13 @@ def _crlf_bom(src: Path, dst: Path, bom: bool) -> Path:
 
 QUIRKY = {  # name -> (original in raw_data, byte-order mark?)
     "steer_crlf_bom": ("steer_stand/steer_stand_r1.csv", True),
-    "ramp_crlf": ("ramp/ramp_6.9kpa_r1.csv", False),
 }
 
 
 @pytest.fixture(scope="module")
 def ingested(tmp_path_factory):
-    """Run `roboball stage ingest` on every corpus file and on the CRLF/BOM copies of two real
-    campaign recordings (and their originals), two processes at a time."""
+    """Run `roboball stage ingest` on every corpus file and on a CRLF/BOM copy of a real campaign
+    recording (and its original), two processes at a time."""
     root = tmp_path_factory.mktemp("ingest")
     jobs = {p.stem: (p, root / "out" / p.stem) for p in sorted(CORPUS.glob("*.csv"))}
     for name, (orig, bom) in QUIRKY.items():
