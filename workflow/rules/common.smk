@@ -10,14 +10,14 @@ RAW = config["raw_data"]
 
 
 def _manifest():
-    with open(os.path.join(RAW, "MANIFEST.csv"), newline="") as fh:
-        rows = list(csv.DictReader(fh))
-    out = {}
-    for r in rows:
-        stem = os.path.splitext(os.path.basename(r["file"]))[0]
-        out[stem] = {"src": os.path.join(RAW, r["file"]), "kind": r["kind"],
-                     "pressure_kpa": r["pressure_kpa"] or ""}
-    return out
+    """stem -> src, kind, pressure_kpa; the manifest is checked (files exist, kinds, pressures,
+    unique names) before anything is planned: a one-line error otherwise."""
+    from roboball.checks import read_manifest
+    from roboball.errors import RoboballError
+    try:
+        return read_manifest(RAW)
+    except RoboballError as exc:
+        raise WorkflowError(str(exc))
 
 
 REC = _manifest()
