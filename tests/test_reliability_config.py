@@ -230,3 +230,61 @@ def test_snakemake_refuses_bad_priors_before_any_job(tmp_path):
     text = r.stdout + r.stderr
     assert "priors.yaml: field 'steer.viscous.c': start 30 is outside the bounds" in text, text[-2000:]
     assert not (work / "results").exists()
+
+
+# --------------------------------------------------------------------------------------------
+# the campaign manifest (raw_data/MANIFEST.csv)
+# --------------------------------------------------------------------------------------------
+def manifest_dir(tmp_path: Path, lines: list[str]) -> Path:
+    raw = tmp_path / "raw"
+    (raw / "steer_stand").mkdir(parents=True)
+    (raw / "steer_stand" / "a.csv").write_text("time_s,steer_angle_rad\n0.0,0.0\n0.01,0.0\n")
+    (raw / "other").mkdir()
+    (raw / "other" / "a.csv").write_text("time_s,steer_angle_rad\n0.0,0.0\n0.01,0.0\n")
+    (raw / "MANIFEST.csv").write_text("\n".join(lines) + "\n")
+    return raw
+
+
+BAD_MANIFESTS = {  # case -> (lines, words of the error)
+    "missing_file": (["file,kind,pressure_kpa", "steer_stand/b.csv,steer_stand,"], "line 2: steer_stand/b.csv: file not found"),
+    "unknown_kind": (["file,kind,pressure_kpa", "steer_stand/a.csv,steer,"], "line 2: column kind: unknown kind 'steer'"),
+    "bad_pressure": (["file,kind,pressure_kpa", "steer_stand/a.csv,shell_rock,2 psi"], "'2 psi' is not a number"),
+    "absurd_pressure": (["file,kind,pressure_kpa", "steer_stand/a.csv,shell_rock,13800"], "13800 kPa is outside"),
+    "same_stem": (["file,kind,pressure_kpa", "steer_stand/a.csv,steer_stand,", "other/a.csv,steer_stand,"],
+                  "line 3: other/a.csv: same name as line 2"),
+    "missing_column": (["path,kind", "steer_stand/a.csv,steer_stand"], "line 1 (header): missing column file"),
+    "empty": (["file,kind,pressure_kpa"], "no recordings listed"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD_MANIFESTS))
+def test_bad_manifest_refused_in_one_line(tmp_path, case):
+    from roboball.checks import read_manifest
+    from roboball.errors import ConfigError
+
+    lines, words = BAD_MANIFESTS[case]
+    raw = manifest_dir(tmp_path, lines)
+    with pytest.raises(ConfigError) as info:
+        read_manifest(raw)
+    msg = str(info.value)
+    assert msg.startswith(f"{raw / 'MANIFEST.csv'}: ") and words in msg and "\n" not in msg, msg
+
+
+def test_manifest_reads_the_campaign():
+    from roboball.checks import read_manifest
+
+    m = read_manifest(REPO / "raw_data")
+    assert len(m) == 22 and m["shell_rock_13.8kpa_r1"]["kind"] == "shell_rock"
+    assert m["shell_rock_13.8kpa_r1"]["pressure_kpa"] == "13.8"
+
+
+def test_snakemake_refuses_a_bad_manifest_before_any_job(tmp_path):
+    work = _workflow_copy(tmp_path)
+    raw = manifest_dir(tmp_path, BAD_MANIFESTS["same_stem"][0])
+    os.unlink(work / "raw_data")
+    os.symlink(raw, work / "raw_data")
+    r = subprocess.run([SNAKEMAKE, "-n", "--cores", "1", "results/identify/shell_regression.csv"], cwd=work,
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode != 0
+    assert "raw_data/MANIFEST.csv: line 3: other/a.csv: same name as line 2" in r.stdout + r.stderr
+    assert not (work / "results").exists()
