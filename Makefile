@@ -6,7 +6,7 @@ BIN     := $(VENV)/bin
 STAMP   := $(VENV)/.installed
 CORES   ?= 2
 
-.PHONY: figures test test-slow test-all raw-data clean-results venv
+.PHONY: figures test test-slow test-e2e test-all raw-data clean-results venv
 
 venv: $(STAMP)
 
@@ -32,9 +32,13 @@ test: $(STAMP)
 	$(BIN)/python -m pytest -q -m "not slow"
 
 test-slow: $(STAMP)
-	$(BIN)/python -m pytest -q -m slow
+	$(BIN)/python -m pytest -q -m "slow and not e2e"
 
-test-all: test test-slow
+# The whole pipeline on a copy of the repository, then its incremental behaviour.
+test-e2e: $(STAMP)
+	$(BIN)/python -m pytest -q -m e2e
+
+test-all: test test-slow test-e2e
 
 # Rebuild the virtual test bed's campaign (raw_data/) bit-for-bit from its seed.
 raw-data: $(STAMP)
