@@ -6,7 +6,8 @@ checks that the two agree.
 
 Model: two rigid bodies in the vertical plane of the descent.
 * the shell (pipe assembly: mass m_s, centre of mass at the sphere's centre, inertia I_s about
-  the driveshaft) rolls without slipping down an incline of angle alpha; its rotation theta
+  the driveshaft) rolls without slipping down an incline of angle alpha on the rolling radius
+  R of Drake's point contact (roboball.diagnose.models.rolling_radius); its rotation theta
   (about the robot's +y, positive rolling downhill) moves the centre by R theta along the slope,
   and its rate is the recording's drive_rate;
 * the pitch centre and pendulum (steering held at zero, as one body: mass m_p, centre of mass
@@ -32,7 +33,7 @@ import math
 import numpy as np
 
 from .config import RobotFacts, load_robot
-from .diagnose.models import DT, ReducedModel, active_effects
+from .diagnose.models import DT, ReducedModel, active_effects, rolling_radius
 from .physics import friction as friction_laws
 
 
@@ -58,7 +59,7 @@ class RampModel(ReducedModel):
                        for l in pend)
         self.m_s = L["pipe_assembly"].mass_kg
         self.i_s = L["pipe_assembly"].inertia_kg_m2[1]
-        self.radius = robot.radius
+        self.radius = rolling_radius(robot)
         self.g = robot.g
         self.majd = robot.majd_params("drive")
         self.context = {"k_g": 0.0}

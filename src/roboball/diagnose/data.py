@@ -105,8 +105,6 @@ def _end_of_free_response(t, y, rel: Release, t_stop: float, noise: float, q: fl
     # Still? then a tighter band around the rest level.
     still_tol = max(6.0 * sig.sigma + 2.0 * sig.q, 0.01 * amp)
     n_win = max(int(round(0.5 / sig.dt)), 3)
-    end = float(tu[-1]) if not out.size else float(tu[k_last + out[0]]) - 0.15
-    reason = "end of free response" if out.size else "end of record"
     seg = ys[k_last:]
     if len(seg) > n_win:
         # Rolling range over n_win samples starting at each index.
@@ -118,10 +116,16 @@ def _end_of_free_response(t, y, rel: Release, t_stop: float, noise: float, q: fl
             level = float(np.median(ys[k:k + n_win]))
             dev = np.nonzero(np.abs(ys[k:] - level) > still_tol)[0]
             if dev.size:
-                end = min(end, float(tu[k + dev[0]]) - 0.15)
-                reason = "hand moved the body at rest"
-    end = min(end, rel.t_end_s + STILL_KEEP_S, t_stop)
-    return max(end, t_last), reason
+                end, reason = float(tu[k + dev[0]]) - 0.15, "hand moved the body at rest"
+            else:
+                end, reason = float(tu[-1]), "at rest to the end of the record"
+            end = min(end, rel.t_end_s + STILL_KEEP_S, t_stop)
+            return max(end, t_last), reason
+    if out.size or t_stop < t[-1]:
+        # Still swinging when a hand took over: keep the free response up to its last turning
+        # point (the hand may have grabbed anywhere in the half swing after it).
+        return t_last, "hand took over after the last turning point"
+    return float(min(tu[-1], t_stop)), "end of record"
 
 
 def prepare(rec: Recording) -> Prepared:

@@ -51,6 +51,8 @@ class Settings:
     top_k: int = 2
     bic_min: float = 10.0
     cv_gain: float = 0.05
+    material_noise: float = 4.0       # an effect must remove >= 4 sigma^2 of mean squared residual
+    material_share: float = 0.01      # ... and >= 1% of the baseline's
     max_effects: int = 4
     white_rho: float = 0.3
     white_factor: float = 1.5
@@ -219,10 +221,28 @@ class Selector:
 
     def score(self, sc: Scored, reference: Scored | None = None) -> None:
         sc.rho1 = lag1(self.prep, residuals(self.prep, sc.full.pred))
-        ne = n_eff(sc.full.n, sc.rho1)
-        sc.bic = bic(sc.full.rss, sc.full.n, sc.full.k, ne)
+        n = sc.full.n
+        sc.bic = bic(sc.full.rss, n, sc.full.k, n)
         if reference is not None:
-            sc.delta_bic = sc.bic - bic(reference.full.rss, reference.full.n, reference.full.k, ne)
+            sc.delta_bic = sc.bic - bic(reference.full.rss, reference.full.n, reference.full.k, n)
+
+    def explained(self, sc: Scored, reference: Scored) -> float:
+        """Mean squared residual the model removes relative to `reference`, in noise variances."""
+        return (reference.full.rss - sc.full.rss) / sc.full.n / self.prep.noise ** 2
+
+    def qualifies(self, sc: Scored, reference: Scored, base: Scored) -> tuple[bool, str]:
+        """The keep rule: information criterion, held-out error, materiality, significance."""
+        s = self.s
+        if not sc.delta_bic < -s.bic_min:
+            return False, f"delta BIC {sc.delta_bic:.1f} not below -{s.bic_min:g}"
+        if not sc.cv_rmse < (1.0 - s.cv_gain) * reference.cv_rmse:
+            return False, f"held-out RMS {sc.cv_rmse:.4g} not {s.cv_gain:.0%} below {reference.cv_rmse:.4g}"
+        need = max(s.material_noise, s.material_share * base.full.rss / base.full.n / self.prep.noise ** 2)
+        if not self.explained(sc, reference) >= need:
+            return False, f"explains {self.explained(sc, reference):.3g} noise variances, below {need:.3g}"
+        if not self.significant(sc, sc.effects[-1]):
+            return False, "95% interval of its magnitude includes zero"
+        return True, "kept"
 
     def white(self, sc: Scored) -> bool:
         return sc.rho1 < self.s.white_rho and sc.rmse <= self.s.white_factor * self.prep.noise
@@ -270,11 +290,25 @@ class Selector:
             cands = [c for c in self.model.candidates if c not in chosen]
             if not cands:
                 break
-            probs = [self.full_problem(tuple(chosen) + (c,), current.values) for c in cands]
-            starts = eng.best_starts([(p, c, current.values) for p, c in zip(probs, cands)])
-            for p, v in zip(probs, starts):
+            # Start each candidate from the best grid point of two families of starts: the
+            # current model's values, and "nominal" ones (baseline parameters at their
+            # defaults, release states at the hold levels, the effects already chosen rescaled
+            # by 0.5, 1 and 2).  A model that misses strong physics distorts its own fit (the
+            # viscous coefficient soaks up dry friction, say), and the cost of dry friction has
+            # narrow basins, so a start from the distorted values alone can miss the optimum.
+            nominal = dict(eng.initial_values())
+            nominal.update({k: v for k, v in current.values.items() if "." in k})
+            variants = _rescaled(nominal, chosen)
+            pairs = [x for c in cands for x in ((self.full_problem(tuple(chosen) + (c,), current.values), c,
+                                                 current.values),
+                                                (self.full_problem(tuple(chosen) + (c,), nominal), c, variants))]
+            starts = eng.best_starts(pairs)
+            pairs = [(p, c) for p, c, _ in pairs]
+            for (p, _), v in zip(pairs, starts):
+                v.pop("_cost", None)
                 p.values = v
-            eng.fit(probs, max_iter=s.screen_iter)
+            eng.fit([p for p, _ in pairs], max_iter=s.screen_iter)
+            probs = [min(pairs[2 * i][0], pairs[2 * i + 1][0], key=lambda p: p.rss) for i in range(len(cands))]
             order = sorted(range(len(cands)), key=lambda i: probs[i].rss)
             top = [Scored(effects=probs[i].effects, full=probs[i]) for i in order[: s.top_k]
                    if probs[i].rss < current.full.rss]
@@ -286,27 +320,23 @@ class Selector:
                 if sc is None:
                     sc = Scored(effects=p.effects, full=p)
                 self.score(sc, current)
+                ok, why = self.qualifies(sc, current, base) if sc in top else (False, "not among the best screened")
                 round_info.append(dict(effect=p.effects[-1], rmse=sc.rmse, cv_rmse=sc.cv_rmse,
-                                       delta_bic=sc.delta_bic, rho1=sc.rho1,
-                                       explained=(current.full.rss - p.rss) / p.n / self.prep.noise ** 2,
-                                       params={k: p.values[k] for k in effect_keys(p.effects[-1:])}))
-            eligible = [sc for sc in top
-                        if sc.delta_bic < -s.bic_min and sc.cv_rmse < (1.0 - s.cv_gain) * current.cv_rmse
-                        and self.significant(sc, sc.effects[-1])]
-            for info in round_info:
-                info["kept"] = False
+                                       delta_bic=sc.delta_bic, rho1=sc.rho1, explained=self.explained(sc, current),
+                                       params={k: p.values[k] for k in effect_keys(p.effects[-1:])},
+                                       qualifies=ok, reason=why, kept=False))
+            eligible = [sc for sc, info in zip([next((t for t in top if t.full is probs[i]), None) for i in order],
+                                               round_info) if info["qualifies"]]
+            summary = ", ".join(f"{i['effect']} dBIC {i['delta_bic']:.4g} cv {i['cv_rmse']:.4g} "
+                                f"expl {i['explained']:.3g} ({i['reason']})" for i in round_info[: s.top_k + 1])
+            steps.append(round_info)
             if not eligible:
-                steps.append(round_info)
-                self.log("round: nothing qualifies: " + ", ".join(
-                    f"{i['effect']} dBIC {i['delta_bic']:.1f} cv {i['cv_rmse']:.4g} expl {i['explained']:.2f}" for i in round_info))
+                self.log("round: nothing qualifies: " + summary)
                 break
             best = min(eligible, key=lambda sc: sc.bic)
             for info in round_info:
                 info["kept"] = info["effect"] == best.effects[-1]
-            steps.append(round_info)
-            self.log(f"round: keep {best.effects[-1]} (rmse {best.rmse:.4g}, held-out {best.cv_rmse:.4g}, "
-                     f"dBIC {best.delta_bic:.1f}); " + ", ".join(
-                    f"{i['effect']} dBIC {i['delta_bic']:.1f} cv {i['cv_rmse']:.4g} expl {i['explained']:.2f}" for i in round_info))
+            self.log(f"round: keep {best.effects[-1]}; " + summary)
             chosen.append(best.effects[-1])
             current = best
         timings["forward_s"] = time.perf_counter() - t_start - timings["baseline_s"]
@@ -324,9 +354,9 @@ class Selector:
                 self.cross_validate(reduced, cofit=True)
                 for e, r in zip(chosen, reduced):
                     self.score(current, r)
-                    needed = (current.delta_bic < -s.bic_min and current.cv_rmse < (1.0 - s.cv_gain) * r.cv_rmse)
+                    needed, why = self.qualifies(_reordered(current, e), r, base)
                     if not needed:
-                        self.log(f"backward: drop {e} (dBIC {current.delta_bic:.1f}, held-out {current.cv_rmse:.4g} vs {r.cv_rmse:.4g})")
+                        self.log(f"backward: drop {e} ({why})")
                         chosen.remove(e)
                         current = r
                         changed = True
@@ -351,6 +381,33 @@ class Selector:
         explained = (final.rmse <= s.explained_factor * noise
                      or final.rmse ** 2 <= (1.0 - s.explained_share) * base.rmse ** 2)
         return "augmented" if explained else "unexplained"
+
+
+def _rescaled(values: dict, effects, factors=(0.5, 1.0, 2.0), cap: int = 9) -> list:
+    """Variants of `values` with the magnitudes (first parameters) of `effects` rescaled by
+    each combination of `factors` (jointly when there would be more than `cap` variants)."""
+    firsts = [f"{e}.{fx.LIBRARY[e].params[0].name}" for e in effects]
+    if not firsts:
+        return [dict(values)]
+    combos = [[]]
+    if len(factors) ** len(firsts) <= cap:
+        for _ in firsts:
+            combos = [c + [f] for c in combos for f in factors]
+    else:
+        combos = [[f] * len(firsts) for f in factors]
+    out = []
+    for c in combos:
+        v = dict(values)
+        for key, f in zip(firsts, c):
+            v[key] = values[key] * f
+        out.append(v)
+    return out
+
+
+def _reordered(sc: Scored, last: str) -> Scored:
+    """The same fitted model with `last` named as its most recent effect (for `qualifies`)."""
+    return Scored(effects=tuple(e for e in sc.effects if e != last) + (last,), full=sc.full, cv_rmse=sc.cv_rmse,
+                  cv_pred=sc.cv_pred, rho1=sc.rho1, bic=sc.bic, delta_bic=sc.delta_bic)
 
 
 def diagnose_prepared(prep: Prepared, settings: Settings | None = None, log=None) -> Diagnosis:

@@ -29,6 +29,7 @@ from .models import DT, ReducedModel, hermite
 TS_BOUND = 0.2        # s: release instant may move this far from the release finder's
 Q0_BOUND = 0.1        # rad: release value may move this far from the hold level
 FD_REL = 0.01         # forward-difference step, in units of the parameter's typical size
+DIVERGED = 1e3        # value given to a simulation that blew up
 
 
 def effect_keys(effects) -> list:
@@ -118,7 +119,15 @@ class Engine:
         n_steps = int(math.ceil(horizon / self.dt)) + 1
         import time as _time
         t0 = _time.process_time()
-        Y, Yd = self.model.simulate(q0, P, n_steps, self.dt)
+        with np.errstate(all="ignore"):
+            Y, Yd = self.model.simulate(q0, P, n_steps, self.dt)
+        # A diverging candidate (e.g. a strongly softening stiffness) gets a huge but finite
+        # residual, so the fit rejects it instead of propagating NaN.
+        bad = ~np.isfinite(Y)
+        if bad.any():
+            Y[bad] = DIVERGED
+            Yd[bad] = 0.0
+        Yd[~np.isfinite(Yd)] = 0.0
         self.sim_time += _time.process_time() - t0
         self.n_sims += B
         self.n_calls += 1
@@ -197,6 +206,7 @@ class Engine:
             a, e = offsets[w]
             m = prob.masks[w]
             J[a:e, cols[key]] = (outs[b][0][m] - pred[w][m]) / steps[key]
+        J[~np.isfinite(J)] = 0.0
         return r, J, pred
 
     def evaluate(self, problems, values_list):
@@ -249,6 +259,8 @@ class Engine:
                     du = np.linalg.solve(A + st["lam"] * np.diag(d), -g)
                 except np.linalg.LinAlgError:
                     du = -g / (d * (1 + st["lam"]))
+                if not np.all(np.isfinite(du)):
+                    du = np.zeros_like(du)
                 nv = dict(p.values)
                 for j, k in enumerate(p.free):
                     _, lo, hi = self.info[k]
@@ -260,6 +272,8 @@ class Engine:
                 st = state[id(p)]
                 p.iterations += 1
                 rss = float(r @ r)
+                if not math.isfinite(rss):
+                    rss = math.inf
                 if verbose:
                     print(f"  it {it} {p.effects} rss {p.rss:.6g} -> {rss:.6g} lam {st['lam']:.2g}")
                 if rss < p.rss:
@@ -283,20 +297,28 @@ class Engine:
 
     # ---- grid starts ---------------------------------------------------------------------
     def best_starts(self, probs_effects):
-        """Vectorised `best_start` for several (problem, effect, base_values) at once."""
+        """Best grid start of each (problem, effect, base) in one batched simulation.
+
+        `base` is a dict of values or a list of such dicts (variants); every grid value of the
+        effect's parameters (roboball.physics.effects.Param.grid_values) is tried on every
+        variant, and the values with the lowest cost over the problem's samples are returned
+        (with their cost under the key "_cost")."""
         all_items, spans = [], []
-        for prob, effect, base_values in probs_effects:
+        for prob, effect, bases in probs_effects:
+            if isinstance(bases, dict):
+                bases = [bases]
             eff = fx.LIBRARY[effect]
-            grids = [[g * p.typical for g in p.grid] for p in eff.params]
+            grids = [p.grid_values() for p in eff.params]
             combos = [[]]
             for g in grids:
                 combos = [c + [x] for c in combos for x in g]
             cands = []
-            for c in combos:
-                v = dict(base_values)
-                for p, x in zip(eff.params, c):
-                    v[f"{effect}.{p.name}"] = float(np.clip(x, p.lo, p.hi))
-                cands.append(v)
+            for base_values in bases:
+                for c in combos:
+                    v = dict(base_values)
+                    for p, x in zip(eff.params, c):
+                        v[f"{effect}.{p.name}"] = float(np.clip(x, p.lo, p.hi))
+                    cands.append(v)
             used = [w for w, m in prob.masks.items() if np.any(m)]
             start = len(all_items)
             all_items.extend((v, w) for v in cands for w in used)
@@ -309,5 +331,6 @@ class Engine:
                 w = used[i % len(used)]
                 m = prob.masks[w]
                 costs[i // len(used)] += float(np.sum((outs[start + i][0] - self.windows[w].y)[m] ** 2))
-            best.append(cands[int(np.argmin(costs))])
+            j = int(np.argmin(costs))
+            best.append(dict(cands[j], _cost=float(costs[j])))
         return best

@@ -1,0 +1,286 @@
+"""Blind proof of `roboball diagnose`: effects concealed in test-bed recordings, found or not.
+
+    .venv/bin/python benchmarks/diagnose_blind.py [--seed 6] [--workers 2] [--only KIND] [--limit N]
+                                                 [--json results.json] [--keep DIR]
+
+Each case draws an experiment kind, a concealed effect set (none, one effect, or a pair) and
+magnitudes from the ranges below, makes the recording with the virtual test bed
+(roboball.testbed; its OWN implementations of the effects, roboball.testbed.effects: LuGre dry
+friction with true sticking, a centre of mass moved in the robot description, symbolic
+dead-zone backlash, ...; finer time steps than the diagnosis's models; irregular sampling,
+noise, quantisation and hand-held phases from roboball.testbed.sensors), writes ONLY the CSV
+and its sidecar into an empty temporary folder, and runs `roboball diagnose` on it in a
+subprocess.  The diagnosis never sees the truth.
+
+So that "none" means none, every recording matches its baseline's structure apart from the
+concealed effects: stands have viscous joint friction of a drawn coefficient (the baseline
+fits it), shell runs are rigid point contact with no shell terms, ramp runs are point contact
+with Majd friction (Table I) on both joints; the test bed's perturbed masses, hydroelastic
+contact and its campaign friction are switched off.
+
+Printed: confusion matrix (rows: concealed effect, columns: reported effect; a case with k
+concealed and m reported effects adds k x m counts), exact-set accuracy, false-positive rate on
+the null cases, median relative parameter error (every parameter of every concealed effect
+that was found), median held-out RMSE drop on the non-null cases, per-kind accuracy and the
+wall time.  Targets (issue 6): exact-set accuracy >= 90%, no effect on null cases, median
+parameter error <= 15%, median held-out RMSE drop >= 50%.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+# ---- what is concealed, and how strongly ---------------------------------------------------
+# Magnitudes: physically plausible for this robot and large enough to matter (each changes
+# the free response by several times the sensors' 1 mrad quantisation).  Signed ranges draw a
+# random sign.  Units: SI, the vocabulary's parameter names (roboball.physics.effects).
+RANGES = {
+    "steer_stand": {
+        "coulomb_friction": {"tau_c": (0.15, 0.6)},             # N m (Table I: 0.45-0.65)
+        "stiction": {"tau_s": (0.4, 0.9), "v_s": (0.01, 0.03)},  # N m above kinetic; rad/s
+        "quadratic_drag": {"c2": (0.03, 0.15)},                  # N m s^2/rad^2
+        "linear_stiffness": {"k": (1.0, 4.0, "signed")},         # N m/rad (m g d = 20.5)
+        "cubic_stiffness": {"k3": (2.0, 8.0, "signed")},         # N m/rad^3
+        "com_offset": {"delta": (0.015, 0.06, "signed")},        # rad
+        "backlash": {"k_b": (3.0, 10.0), "b": (0.1, 0.3)},       # N m/rad, rad
+    },
+    "shell_rock": {
+        "viscous_damping": {"c": (0.8, 4.0)},                    # N m s/rad (zeta 0.04-0.2)
+        "rolling_resistance": {"tau_rr": (0.2, 1.0)},            # N m
+        "quadratic_drag": {"c2": (1.0, 5.0)},                    # N m s^2/rad^2
+        "linear_stiffness": {"k": (4.0, 20.0)},                  # N m/rad (K_eq = 21.9)
+        "cubic_stiffness": {"k3": (20.0, 80.0, "signed")},       # N m/rad^3
+        "com_offset": {"delta": (0.015, 0.05, "signed")},        # rad
+    },
+    "ramp": {
+        "viscous_damping": {"c": (0.5, 3.0)},                    # N m s/rad on the drive rate
+        "rolling_resistance": {"tau_rr": (0.5, 3.0)},            # N m
+        "quadratic_drag": {"c2": (0.05, 0.3)},                   # N m s^2/rad^2
+    },
+}
+BASE_VISCOUS = (0.05, 0.2)          # N m s/rad, stands
+# With stiction, kinetic friction is drawn from 0.15-0.35 N m, so that the breakaway excess
+# exceeds the amplitude lost per half swing (2 tau_c / m g d): the swings then always stop
+# earlier than kinetic friction alone would let them, which is what stiction means.
+WITH_STICTION = {"coulomb_friction": {"tau_c": (0.15, 0.35)}}
+PRESSURES = (6.9, 10.3, 13.8, 17.2, 20.7)
+SETS = {
+    "steer_stand": [(), (), (), (),
+                    ("coulomb_friction",), ("quadratic_drag",), ("linear_stiffness",),
+                    ("cubic_stiffness",), ("com_offset",), ("backlash",),
+                    ("coulomb_friction", "quadratic_drag"), ("coulomb_friction", "com_offset"),
+                    ("coulomb_friction", "linear_stiffness"), ("coulomb_friction", "stiction"),
+                    ("coulomb_friction", "stiction"),
+                    ("cubic_stiffness", "com_offset"), ("quadratic_drag", "linear_stiffness")],
+    "shell_rock": [(), (), (),
+                   ("viscous_damping",), ("rolling_resistance",), ("quadratic_drag",), ("linear_stiffness",),
+                   ("cubic_stiffness",), ("com_offset",),
+                   ("viscous_damping", "linear_stiffness"), ("viscous_damping", "com_offset"),
+                   ("rolling_resistance", "linear_stiffness"), ("quadratic_drag", "linear_stiffness"),
+                   ("viscous_damping", "rolling_resistance")],
+    "ramp": [(), (), (),
+             ("viscous_damping",), ("rolling_resistance",), ("quadratic_drag",),
+             ("rolling_resistance", "viscous_damping"), ("rolling_resistance", "quadratic_drag"),
+             ("viscous_damping", "quadratic_drag")],
+}
+# stiction is concealed only together with Coulomb friction: breakaway ABOVE kinetic friction
+# presupposes kinetic friction, and with viscous damping alone the swings never slow down
+# enough within a recording for a breakaway torque to act (nothing to find).
+RELEASES = {"steer_stand": (0.5, 0.9), "shell_rock": (0.2, 0.4)}     # rad from rest, alternating sign;
+# steer swings stay inside the steer joint's limits (-1.57, +1.0 rad), which the reduced model does not have
+FREE_S = 8.0
+
+
+def draw_cases(seed: int) -> list:
+    rng = np.random.default_rng(seed)
+    cases = []
+    for kind, sets in SETS.items():
+        for effects in sets:
+            drawn = {}
+            for e in effects:
+                drawn[e] = {}
+                ranges = WITH_STICTION[e] if ("stiction" in effects and e in WITH_STICTION) else RANGES[kind][e]
+                for p, spec in ranges.items():
+                    x = float(rng.uniform(spec[0], spec[1]))
+                    if len(spec) > 2 and rng.random() < 0.5:
+                        x = -x
+                    drawn[e][p] = round(x, 4)
+            case = {"id": f"{kind}-{len(cases):02d}", "kind": kind, "effects": drawn,
+                    "seed": int(rng.integers(2 ** 31))}
+            if kind == "steer_stand":
+                case["viscous_c"] = round(float(rng.uniform(*BASE_VISCOUS)), 4)
+            if kind != "steer_stand":
+                case["pressure_kpa"] = float(rng.choice(PRESSURES))
+            if kind in RELEASES:
+                lo, hi = RELEASES[kind]
+                sign = -1.0 if rng.random() < 0.5 else 1.0
+                case["releases"] = [round(sign * (-1) ** i * float(rng.uniform(lo, hi)), 4) for i in range(3)]
+            cases.append(case)
+    return cases
+
+
+def make_recording(case: dict, folder: Path) -> Path:
+    """The test bed plays the experimenter: the recording and its sidecar, nothing else."""
+    from roboball.recording import write_recording
+    from roboball.testbed.campaign import _rest_angle, ramp_recording, release_recording
+    from roboball.testbed.effects import conceal
+    from roboball.testbed.physics import load_truth, true_robot
+    from roboball.testbed.sensors import measure
+
+    truth = load_truth()
+    rng = np.random.default_rng(case["seed"])
+    kind = case["kind"]
+    robot = true_robot(truth, perturbed=False)
+    terms, systems, robot = conceal(kind, case["effects"], robot)
+    meta = {"kind": kind, "pressure_kpa": case.get("pressure_kpa")}
+    if kind == "ramp":
+        dense, exit_s, _ = ramp_recording(case["pressure_kpa"], truth, rng, extras=(), extra_terms=terms,
+                                          extra_systems=systems, robot=robot)
+        meta.update(ramp_angle_deg=robot.ramp_angle_deg, ramp_exit_s=exit_s)
+    else:
+        rest = _rest_angle(kind, robot)
+        targets = [rest + a for a in case["releases"]]
+        base = {"steer": ("viscous", {"c": case["viscous_c"]})} if kind == "steer_stand" else None
+        dense = release_recording(kind, case.get("pressure_kpa"), targets, FREE_S, truth, rng, extras=(),
+                                  extra_terms=terms, extra_systems=systems, base_friction=base, robot=robot)
+    rec = measure(dense, truth["sensors"], rng)
+    path = folder / "recording.csv"
+    write_recording(path, rec, meta)
+    return path
+
+
+def run_case(case: dict, keep: str | None = None) -> dict:
+    t0 = time.perf_counter()
+    with tempfile.TemporaryDirectory(prefix="blind_") as tmp:
+        folder = Path(tmp) / "in"
+        folder.mkdir()
+        csv = make_recording(case, folder)
+        t_made = time.perf_counter() - t0
+        assert sorted(p.name for p in folder.iterdir()) == ["recording.csv", "recording.json"]
+        out = Path(tmp) / "out"
+        t1 = time.perf_counter()
+        proc = subprocess.run([sys.executable, "-m", "roboball.cli", "diagnose", str(csv), "--out", str(out)],
+                              capture_output=True, text=True, env={**os.environ, "PYTHONHASHSEED": "0"})
+        t_diag = time.perf_counter() - t1
+        result = dict(case, returncode=proc.returncode, stderr=proc.stderr.strip()[-500:],
+                      make_s=round(t_made, 1), diagnose_s=round(t_diag, 1))
+        if proc.returncode == 0:
+            result["diagnosis"] = json.loads((out / "diagnosis.json").read_text())
+        if keep:
+            dest = Path(keep) / case["id"]
+            shutil.rmtree(dest, ignore_errors=True)
+            shutil.copytree(tmp, dest)
+    return result
+
+
+def score(results: list) -> dict:
+    rows = []
+    for r in results:
+        concealed = set(r["effects"])
+        d = r.get("diagnosis")
+        reported = set(m["effect"] for m in d["missing_physics"]) if d else {"<failed>"}
+        errs = []
+        if d:
+            for m in d["missing_physics"]:
+                if m["effect"] in r["effects"]:
+                    for p, truth in r["effects"][m["effect"]].items():
+                        if p in m["parameters"] and truth != 0:
+                            errs.append(abs(m["parameters"][p] - truth) / abs(truth))
+        drop = None
+        if d and concealed:
+            f = d["fit"]
+            drop = 1.0 - f["rmse_heldout_after"] / f["rmse_heldout_before"]
+        rows.append(dict(id=r["id"], kind=r["kind"], concealed=sorted(concealed), reported=sorted(reported),
+                         exact=concealed == reported, param_errors=errs, drop=drop,
+                         verdict=d["verdict"] if d else "failed", seconds=r.get("diagnose_s")))
+    null = [x for x in rows if not x["concealed"]]
+    nonnull = [x for x in rows if x["concealed"]]
+    errs = [e for x in rows for e in x["param_errors"]]
+    drops = [x["drop"] for x in nonnull if x["drop"] is not None]
+    return dict(
+        rows=rows, n=len(rows),
+        exact_set_accuracy=sum(x["exact"] for x in rows) / len(rows),
+        null_false_positive_rate=(sum(bool(x["reported"]) for x in null) / len(null)) if null else None,
+        median_parameter_error=statistics.median(errs) if errs else None,
+        median_heldout_rmse_drop=statistics.median(drops) if drops else None,
+        per_kind={k: sum(x["exact"] for x in rows if x["kind"] == k) / max(1, sum(x["kind"] == k for x in rows))
+                  for k in SETS},
+    )
+
+
+def confusion(rows) -> str:
+    names = sorted({e for x in rows for e in x["concealed"] + x["reported"]})
+    labels = ["none"] + names
+    m = {a: {b: 0 for b in labels} for a in labels}
+    for x in rows:
+        for a in (x["concealed"] or ["none"]):
+            for b in (x["reported"] or ["none"]):
+                m[a][b] += 1
+    short = {n: n.replace("_friction", "").replace("_stiffness", "_k").replace("_resistance", "_res")[:11] for n in labels}
+    corner = "concealed \\ reported"
+    head = f"{corner:<22}" + "".join(f"{short[b]:>12}" for b in labels)
+    lines = [head]
+    for a in labels:
+        lines.append(f"{a:<22}" + "".join(f"{m[a][b]:>12}" for b in labels))
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--seed", type=int, default=6)
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--only", default=None, help="only cases of this kind")
+    ap.add_argument("--limit", type=int, default=None)
+    ap.add_argument("--json", default=None, help="write every case and the scores here")
+    ap.add_argument("--keep", default=None, help="keep each case's recording and diagnosis under this folder")
+    args = ap.parse_args(argv)
+    cases = draw_cases(args.seed)
+    if args.only:
+        cases = [c for c in cases if c["kind"] == args.only]
+    if args.limit:
+        cases = cases[: args.limit]
+    t0 = time.perf_counter()
+    results = []
+    with ProcessPoolExecutor(max_workers=args.workers) as pool:
+        for r in pool.map(run_case, cases, [args.keep] * len(cases)):
+            results.append(r)
+            d = r.get("diagnosis")
+            rep = ", ".join(m["effect"] for m in d["missing_physics"]) if d else f"FAILED: {r['stderr']}"
+            print(f"{r['id']:<16} concealed {sorted(r['effects']) or '-'}; reported {rep or '-'}"
+                  f" [{d['verdict'] if d else '-'}] ({r['make_s']:.0f} + {r['diagnose_s']:.0f} s)", flush=True)
+    wall = time.perf_counter() - t0
+    s = score(results)
+    print()
+    print(confusion(s["rows"]))
+    print()
+    fmt = lambda x: "n/a" if x is None else f"{x:.1%}"
+    print(f"cases: {s['n']} (seed {args.seed}), wall time {wall / 60:.1f} min with {args.workers} workers")
+    print(f"exact-set accuracy:            {fmt(s['exact_set_accuracy'])}   (target >= 90%)")
+    print(f"false-positive rate, nulls:    {fmt(s['null_false_positive_rate'])}   (target 0%)")
+    print(f"median parameter error:        {fmt(s['median_parameter_error'])}   (target <= 15%)")
+    print(f"median held-out RMSE drop:     {fmt(s['median_heldout_rmse_drop'])}   (target >= 50%, non-null cases)")
+    print("exact-set accuracy by kind:    " + ", ".join(f"{k} {fmt(v)}" for k, v in s["per_kind"].items()))
+    times = [x["seconds"] for x in s["rows"] if x["seconds"] is not None]
+    if times:
+        print(f"diagnose time per case:        median {statistics.median(times):.0f} s, max {max(times):.0f} s")
+    if args.json:
+        Path(args.json).write_text(json.dumps(dict(scores={k: v for k, v in s.items() if k != "rows"}, rows=s["rows"],
+                                                   cases=results, wall_s=wall, seed=args.seed), indent=1,
+                                              default=float))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

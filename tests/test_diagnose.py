@@ -1,0 +1,127 @@
+"""Issue 6: `roboball diagnose` finds planted physics, leaves a matching recording alone, names
+the dry friction of the real steer stand, writes the contract's files, and refuses bad input.
+
+Test recordings come from the virtual test bed (its own LuGre dry friction with true sticking,
+finer time step, sensor noise, quantisation and hand phases), which the diagnosis never sees."""
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from roboball.cli import main as cli_main
+from roboball.diagnose import diagnose
+from roboball.diagnose.decide import Settings
+
+REPO = Path(__file__).resolve().parents[1]
+BAD = REPO / "tests" / "bad_recordings"
+REAL_STEER = Path("/work/shared/data/roboball_real/steering_static_stand_response.csv")
+FAST = Settings(max_effects=2)
+
+
+def _stand_recording(folder: Path, effects: dict, viscous_c: float, releases=(-0.8, 0.6), free_s=6.0, seed=1):
+    from roboball.recording import write_recording
+    from roboball.testbed.campaign import _rest_angle, release_recording
+    from roboball.testbed.effects import conceal
+    from roboball.testbed.physics import load_truth, true_robot
+    from roboball.testbed.sensors import measure
+
+    truth = load_truth()
+    rng = np.random.default_rng(seed)
+    terms, systems, robot = conceal("steer_stand", effects, true_robot(truth, perturbed=False))
+    rest = _rest_angle("steer_stand", robot)
+    dense = release_recording("steer_stand", None, [rest + a for a in releases], free_s, truth, rng, extras=(),
+                              extra_terms=terms, extra_systems=systems,
+                              base_friction={"steer": ("viscous", {"c": viscous_c})}, robot=robot)
+    path = folder / "stand.csv"
+    write_recording(path, measure(dense, truth["sensors"], rng), {"kind": "steer_stand", "pressure_kpa": None})
+    return path
+
+
+def test_planted_coulomb_friction_is_found_with_its_magnitude(tmp_path):
+    path = _stand_recording(tmp_path, {"coulomb_friction": {"tau_c": 0.35}}, viscous_c=0.12)
+    d, js = diagnose(path, settings=FAST)
+    assert [m["effect"] for m in js["missing_physics"]] == ["coulomb_friction"]
+    m = js["missing_physics"][0]
+    assert m["dof"] == "steer"
+    assert m["parameters"]["tau_c"] == pytest.approx(0.35, rel=0.15)
+    lo, hi = m["ci95"]["tau_c"]
+    assert lo < m["parameters"]["tau_c"] < hi
+    assert m["delta_bic"] < -10
+    assert js["verdict"] == "augmented"
+    f = js["fit"]
+    assert f["rmse_after"] < 0.2 * f["rmse_before"]
+    assert f["rmse_heldout_after"] < 0.2 * f["rmse_heldout_before"]
+    assert d.final.values["viscous_c"] == pytest.approx(0.12, rel=0.15)
+    # The baseline's misfit concentrates where dry friction acts: slow, small late swings.
+    top = js["located"][0]
+    assert top["regime"] in ("low_speed", "near_stop", "rest_offset", "small_amplitude", "late_decay", "reversal")
+
+
+def test_recording_matching_the_baseline_is_adequate(tmp_path):
+    path = _stand_recording(tmp_path, {}, viscous_c=0.15, seed=2)
+    d, js = diagnose(path, settings=FAST)
+    assert js["verdict"] == "adequate"
+    assert js["missing_physics"] == []
+    assert js["baseline"]["fitted"]["viscous_c"] == pytest.approx(0.15, rel=0.1)
+    assert js["fit"]["rmse_before"] < 2.0 * d.noise
+
+
+@pytest.mark.skipif(not REAL_STEER.exists(), reason="real logs not available (../shared/data/roboball_real)")
+def test_real_steer_stand_log_shows_dry_friction_and_its_heldout_error_falls():
+    """Issue 6, acceptance 3: the swings stop off rest; the diagnosis names the dry friction."""
+    d, js = diagnose(REAL_STEER, settings=Settings(max_effects=2))
+    names = [m["effect"] for m in js["missing_physics"]]
+    assert "coulomb_friction" in names or "stiction" in names, names
+    f = js["fit"]
+    assert f["rmse_heldout_after"] < 0.5 * f["rmse_heldout_before"]
+    dry = next(m for m in js["missing_physics"] if m["effect"] in ("coulomb_friction", "stiction"))
+    value = next(iter(dry["parameters"].values()))
+    assert 0.05 < value < 2.0          # N m: the order of Table I's dry friction (0.45-0.65)
+
+
+def test_cli_writes_the_contract_files(tmp_path, capsys):
+    path = _stand_recording(tmp_path, {"coulomb_friction": {"tau_c": 0.3}}, viscous_c=0.1, releases=(-0.7,),
+                            free_s=5.0, seed=3)
+    out = tmp_path / "diag"
+    assert cli_main(["diagnose", str(path), "--out", str(out)]) == 0
+    assert "augmented (coulomb_friction)" in capsys.readouterr().out
+    js = json.loads((out / "diagnosis.json").read_text())
+    assert set(js) == {"kind", "baseline", "verdict", "located", "missing_physics", "fit"}
+    assert js["kind"] == "steer_stand" and js["verdict"] in ("adequate", "augmented", "unexplained")
+    assert set(js["baseline"]) == {"description", "fitted"} and "viscous_c" in js["baseline"]["fitted"]
+    for loc in js["located"]:
+        assert {"start_s", "end_s", "signal", "regime", "share_of_residual"} <= set(loc)
+        assert loc["start_s"] <= loc["end_s"] and 0 <= loc["share_of_residual"] <= 1
+        assert loc["signal"] == "steer_angle_rad"
+    for m in js["missing_physics"]:
+        assert {"effect", "dof", "parameters", "ci95", "delta_bic", "explains"} <= set(m)
+        assert set(m["parameters"]) == set(m["ci95"])
+    f = js["fit"]
+    assert {"rmse_before", "rmse_after", "rmse_heldout_before", "rmse_heldout_after", "units"} <= set(f)
+    assert f["units"] == "rad"
+    # One release: held out by time blocks.  The augmented model also runs in Drake and fits there.
+    assert f["drake_rmse_after"] < 0.2 * f["drake_rmse_before"]
+    for name in ("report.md", "overlay.png", "regimes.png", "windows.png", "details.json"):
+        assert (out / name).stat().st_size > 0
+    assert "coulomb_friction" in (out / "report.md").read_text()
+
+
+@pytest.mark.parametrize("args,needle", [
+    ([str(BAD / "empty.csv")], "empty"),
+    ([str(BAD / "misspelled_column.csv")], "steer_angel_rad"),
+    ([str(BAD / "unknown_kind.csv")], "kind"),
+    ([str(BAD / "ok_crlf.csv"), "--kind", "banana"], "banana"),
+    ([str(BAD / "missing_file.csv")], "not found"),
+])
+def test_bad_input_exits_nonzero_with_one_line(tmp_path, capsys, args, needle):
+    try:
+        code = cli_main(["diagnose", *args, "--out", str(tmp_path / "o")])
+    except SystemExit as exc:          # argparse usage errors (one line, exit 2)
+        code = exc.code
+    err = capsys.readouterr().err.strip()
+    assert code != 0
+    assert len(err.splitlines()) == 1, err
+    assert needle in err
+    assert not (tmp_path / "o" / "diagnosis.json").exists()

@@ -1,0 +1,85 @@
+"""The effect library (issue 6): one law per vocabulary entry, evaluated identically on NumPy and
+on Drake symbolic expressions."""
+import math
+
+import numpy as np
+import pydrake.symbolic as sym
+import pytest
+
+from roboball.physics import effects as fx
+from roboball.sim.forces import SYM
+
+VOCABULARY = ("viscous_damping", "coulomb_friction", "stiction", "quadratic_drag", "linear_stiffness",
+              "cubic_stiffness", "com_offset", "backlash", "rolling_resistance")
+PARAMS = {"viscous_damping": {"c": 0.3}, "coulomb_friction": {"tau_c": 0.45}, "stiction": {"tau_s": 0.2},
+          "quadratic_drag": {"c2": 0.1}, "linear_stiffness": {"k": -2.0}, "cubic_stiffness": {"k3": 5.0},
+          "com_offset": {"delta": 0.03}, "backlash": {"k_b": 6.0, "b": 0.2}, "rolling_resistance": {"tau_rr": 1.2}}
+CONTEXT = {"k_g": 20.54}
+
+
+def test_library_holds_exactly_the_vocabulary_with_units_and_bounds():
+    assert fx.VOCABULARY == VOCABULARY
+    for name, eff in fx.LIBRARY.items():
+        assert eff.params, name
+        for p in eff.params:
+            assert p.unit and p.lo < p.hi and p.lo <= p.typical <= p.hi, (name, p)
+    assert fx.LIBRARY["com_offset"].kind == "geometric" and fx.LIBRARY["com_offset"].context == ("k_g",)
+
+
+@pytest.mark.parametrize("name,q,qd,expected", [
+    ("viscous_damping", 0.2, -1.5, 0.45),
+    ("coulomb_friction", 0.0, 2.0, -0.45),
+    ("coulomb_friction", 0.0, -2.0, 0.45),
+    ("coulomb_friction", 0.3, 0.0, 0.0),
+    ("stiction", 0.0, fx.V_STRIBECK, -0.2 * math.exp(-1.0) * math.tanh(fx.V_STRIBECK / fx.V_EPS)),
+    ("stiction", 0.0, 1.0, -0.2 * math.exp(-(1.0 / fx.V_STRIBECK) ** 2)),
+    ("quadratic_drag", 0.0, -2.0, 0.4),
+    ("linear_stiffness", 0.1, 5.0, 0.2),
+    ("cubic_stiffness", -0.2, 0.0, 0.04),
+    ("com_offset", 0.0, 0.0, 20.54 * math.sin(0.03)),
+    ("backlash", 0.15, 1.0, 0.0),
+    ("backlash", 0.5, 1.0, -6.0 * 0.3),
+    ("backlash", -0.5, 1.0, 6.0 * 0.3),
+    ("rolling_resistance", 0.0, 3.0, -1.2),
+])
+def test_laws_at_hand_values(name, q, qd, expected):
+    got = fx.torque(name, np.array([q]), np.array([qd]), PARAMS[name], CONTEXT)[0]
+    assert got == pytest.approx(expected, rel=1e-9, abs=1e-12)
+
+
+def test_com_offset_shifts_the_rest_angle_by_delta():
+    """Gravity -k_g sin(q) plus the com_offset law vanishes at q = delta: a shifted rest."""
+    q = np.linspace(-0.2, 0.2, 40001)
+    total = -CONTEXT["k_g"] * np.sin(q) + fx.com_offset(q, 0.0 * q, 0.03, CONTEXT["k_g"])
+    assert q[np.argmin(np.abs(total))] == pytest.approx(0.03, abs=2e-5)
+
+
+@pytest.mark.parametrize("name", ["viscous_damping", "coulomb_friction", "stiction", "quadratic_drag",
+                                  "rolling_resistance"])
+def test_dissipative_laws_oppose_motion(name):
+    qd = np.linspace(-5, 5, 2001)
+    tau = fx.torque(name, 0.0 * qd, qd, PARAMS[name], CONTEXT)
+    assert np.all(tau * qd <= 1e-15)
+    assert np.any(tau * qd < 0)
+
+
+@pytest.mark.parametrize("name", VOCABULARY)
+def test_numpy_and_drake_symbolic_give_the_same_torque(name):
+    """The same function body on Drake symbolic variables (as in the augmented Drake model)."""
+    q, qd = sym.Variable("q"), sym.Variable("qd")
+    expr = fx.torque(name, q, qd, PARAMS[name], CONTEXT, m=SYM)
+    rng = np.random.default_rng(3)
+    for qv, qdv in zip(rng.uniform(-1, 1, 25), rng.uniform(-3, 3, 25)):
+        want = float(fx.torque(name, np.array([qv]), np.array([qdv]), PARAMS[name], CONTEXT)[0])
+        got = expr.Evaluate({q: qv, qd: qdv}) if hasattr(expr, "Evaluate") else float(expr)
+        assert got == pytest.approx(want, rel=1e-12, abs=1e-12), (name, qv, qdv)
+
+
+def test_total_torque_sums_effects_and_unknown_names_are_refused():
+    q, qd = np.array([0.3]), np.array([-0.7])
+    both = {"viscous_damping": PARAMS["viscous_damping"], "cubic_stiffness": PARAMS["cubic_stiffness"]}
+    assert fx.total_torque(both, q, qd)[0] == pytest.approx(0.21 - 5.0 * 0.027)
+    with pytest.raises(ValueError, match="vocabulary"):
+        fx.torque("magic", q, qd, {})
+    with pytest.raises(ValueError, match="k_g"):
+        fx.torque("com_offset", q, qd, {"delta": 0.1})
