@@ -6,25 +6,33 @@ checks that the two agree.
 
 Model: two rigid bodies in the vertical plane of the descent.
 * the shell (pipe assembly: mass m_s, centre of mass at the sphere's centre, inertia I_s about
-  the driveshaft) rolls without slipping down an incline of angle alpha on the rolling radius
-  R of Drake's point contact (roboball.diagnose.models.rolling_radius); its rotation theta
-  (about the robot's +y, positive rolling downhill) moves the centre by R theta along the slope,
-  and its rate is the recording's drive_rate;
+  the driveshaft) on an incline of angle alpha: its centre moves by s along the slope and it
+  turns by theta about the robot's +y (positive rolling downhill); theta' is the recording's
+  drive_rate.  It rolls on the radius R of Drake's compliant point contact
+  (roboball.diagnose.models.rolling_radius);
 * the pitch centre and pendulum (steering held at zero, as one body: mass m_p, centre of mass
   a distance -z_c below the centre in its own frame, inertia I_p about the driveshaft through
-  its centre of mass) swing about the driveshaft with world pitch angle beta (0 = hanging
-  vertically).
-Lagrange's equations with M = m_s + m_p:
-    M11 theta'' + M12 beta'' = M g R sin(alpha) + m_p R z_c sin(beta - alpha) beta'^2 + Q_theta
-    M12 theta'' + M22 beta'' = m_p g z_c sin(beta) + Q_beta
-    M11 = M R^2 + I_s,  M22 = I_p + m_p z_c^2,  M12 = m_p R z_c cos(beta - alpha).
+  its centre of mass) swing about the driveshaft with world pitch angle beta (0 = hanging).
+With M = m_s + m_p and F the ground's friction force on the shell along the slope, Lagrange's
+equations are
+    M s'' + m_p z_c [cos(beta - alpha) beta'' - sin(beta - alpha) beta'^2] = M g sin(alpha) + F
+    I_s theta'' = -R F + Q_theta
+    (I_p + m_p z_c^2) beta'' + m_p z_c cos(beta - alpha) s'' = m_p g z_c sin(beta) + Q_beta.
 The drive joint's angle is q_d = beta - theta (the pipe turns about -y relative to the pitch
 centre), so Majd friction tau_d(q_d') (Table I, drive) enters as Q_theta = -tau_d,
-Q_beta = +tau_d.  Effects on the rolling coordinate (roboball.physics.effects, e.g. rolling
-resistance, shell damping) add tau_e(theta, theta') to Q_theta.  Left out: the steer joint and
-the roll (pipe_angle) motion, which stay within a few hundredths of a radian on the ramp.
+Q_beta = +tau_d; effects on the rolling coordinate (roboball.physics.effects: rolling
+resistance, shell damping, drag) add tau_e(theta, theta') to Q_theta.
 
-Integration: explicit midpoint (RK2) with a fixed step (2 ms), like roboball.diagnose.models.
+Rolling or sliding.  The shell rolls (s = R theta) while the friction it needs stays within
+Coulomb's cone, |F| <= mu N (mu = 0.2, the ground friction of the robot facts; N the normal
+force including the pendulum's swing).  Since mu < tan(16 deg), a strong braking torque on the
+shell (heavy damping near top speed) makes it SLIDE down the ramp with F = mu N opposing the
+slip, as Drake's point contact does; the model switches per batch member and re-sticks when the
+slip velocity s' - R theta' changes sign.  Left out: the steer joint and the roll (pipe_angle)
+motion, which stay within a few hundredths of a radian on the ramp.
+
+Integration: explicit midpoint (RK2) with a fixed step (2 ms), the contact mode frozen within
+a step, like roboball.diagnose.models.
 """
 from __future__ import annotations
 
@@ -61,56 +69,94 @@ class RampModel(ReducedModel):
         self.i_s = L["pipe_assembly"].inertia_kg_m2[1]
         self.radius = rolling_radius(robot)
         self.g = robot.g
+        self.mu = float(robot.data["shell"]["ground_friction"])
         self.majd = robot.majd_params("drive")
         self.context = {"k_g": 0.0}
         self.base_params = ()
         self.candidates = ("viscous_damping", "rolling_resistance", "quadratic_drag")
-        self.description = (f"planar ramp descent on {math.degrees(self.alpha):.3g} deg: shell rolling without "
-                            "slipping (rigid point contact) + pendulum about the driveshaft, Majd friction "
-                            "(Table I) on the drive joint")
+        self.description = (f"planar ramp descent on {math.degrees(self.alpha):.3g} deg: shell rolling (or "
+                            f"sliding beyond mu = {self.mu:g}) on rigid point contact + pendulum about the "
+                            "driveshaft, Majd friction (Table I) on the drive joint")
 
     def simulate(self, q0, P: dict, n_steps: int, dt: float = DT):
         """Released from rest (pendulum hanging) for a batch; returns drive rate and its
         derivative at every step, (n_steps + 1, B) each.  `q0` only sets the batch size."""
         B = np.asarray(q0).shape[0]
         active = active_effects(P, self.candidates)
-        M = self.m_s + self.m_p
-        R, a, g = self.radius, self.alpha, self.g
-        m11 = M * R * R + self.i_s
-        m22 = self.i_p + self.m_p * self.z_c ** 2
-        mrz = self.m_p * R * self.z_c
-        mgz = self.m_p * g * self.z_c
-        drive_torque = M * g * R * math.sin(a)
+        M, m_p, zc = self.m_s + self.m_p, self.m_p, self.z_c
+        R, a, g, mu, i_s = self.radius, self.alpha, self.g, self.mu, self.i_s
+        m22 = self.i_p + m_p * zc ** 2
+        mz = m_p * zc
+        m11_roll = M * R * R + i_s
+        g_s = M * g * math.sin(a)
+        n0 = M * g * math.cos(a)
+        mgz = m_p * g * zc
         mj = self.majd
         extra = self.bind_effects(P, active) if active else None
 
-        def deriv(th, be, w, wb):
+        def deriv(th, be, vs, w, wb, sliding, direction):
+            """Accelerations (s'', theta'', beta''), the friction the rolling mode needs and
+            the normal force, for the current contact mode of each member."""
             cba = np.cos(be - a)
             sba = np.sin(be - a)
-            m12 = mrz * cba
             tau_d = friction_laws.majd(wb - w, mj["f_w"], mj["f_c"], mj["sigma"], mj["omega_c"], mj["n"])
-            f1 = drive_torque + mrz * sba * wb * wb - tau_d
+            q_th = -tau_d
             if extra is not None:
-                f1 = f1 + extra(th, w)
-            f2 = mgz * np.sin(be) + tau_d
-            det = m11 * m22 - m12 * m12
-            return (m22 * f1 - m12 * f2) / det, (m11 * f2 - m12 * f1) / det
+                q_th = extra(th, w, q_th.copy())
+            rhs_s = g_s + mz * sba * wb * wb
+            rhs_b = mgz * np.sin(be) + tau_d
+            # Rolling: s'' = R theta''.
+            m12 = mz * R * cba
+            det = m11_roll * m22 - m12 * m12
+            f1 = R * rhs_s + q_th
+            th_r = (m22 * f1 - m12 * rhs_b) / det
+            be_r = (m11_roll * rhs_b - m12 * f1) / det
+            f_req = (q_th - i_s * th_r) / R
+            normal = n0 + mz * (-sba * be_r - cba * wb * wb)
+            if not sliding.any():
+                return R * th_r, th_r, be_r, f_req, normal
+            # Sliding: F = mu N in the stored direction.
+            f = mu * np.maximum(normal, 0.0) * direction
+            mc = mz * cba
+            det_s = M * m22 - mc * mc
+            s_sl = (m22 * (rhs_s + f) - mc * rhs_b) / det_s
+            be_sl = (M * rhs_b - mc * (rhs_s + f)) / det_s
+            th_sl = (q_th - R * f) / i_s
+            return (np.where(sliding, s_sl, R * th_r), np.where(sliding, th_sl, th_r),
+                    np.where(sliding, be_sl, be_r), f_req, normal)
 
         Y = np.empty((n_steps + 1, B))
         Yd = np.empty((n_steps + 1, B))
-        th = np.zeros(B)
-        be = np.zeros(B)
-        w = np.zeros(B)
-        wb = np.zeros(B)
+        th, be, vs, w, wb = (np.zeros(B) for _ in range(5))
+        sliding = np.zeros(B, bool)
+        direction = np.zeros(B)
         h2 = 0.5 * dt
-        a1, b1 = deriv(th, be, w, wb)
+        as1, a1, b1, f_req, normal = deriv(th, be, vs, w, wb, sliding, direction)
         Y[0], Yd[0] = w, a1
         for k in range(1, n_steps + 1):
-            a2, b2 = deriv(th + h2 * w, be + h2 * wb, w + h2 * a1, wb + h2 * b1)
+            # Contact mode for this step: start sliding where rolling needs more than mu N;
+            # stick again where the slip velocity has reversed.
+            start = ~sliding & (np.abs(f_req) > mu * np.maximum(normal, 0.0))
+            if start.any():
+                direction = np.where(start, np.sign(f_req), direction)
+                sliding = sliding | start
+            if sliding.any():
+                slip = vs - R * w
+                stick = sliding & (slip * direction > 0)      # friction would now push the slip on
+                if stick.any():
+                    # Plastic re-stick: common rolling speed from the shell's momentum about the contact.
+                    w_new = (M * R * vs + i_s * w) / (M * R * R + i_s)
+                    w = np.where(stick, w_new, w)
+                    vs = np.where(stick, R * w_new, vs)
+                    sliding = sliding & ~stick
+                as1, a1, b1, f_req, normal = deriv(th, be, vs, w, wb, sliding, direction)
+            as2, a2, b2, _, _ = deriv(th + h2 * w, be + h2 * wb, vs + h2 * as1, w + h2 * a1, wb + h2 * b1,
+                                      sliding, direction)
             th = th + dt * (w + h2 * a1)
             be = be + dt * (wb + h2 * b1)
+            vs = vs + dt * as2
             w = w + dt * a2
             wb = wb + dt * b2
-            a1, b1 = deriv(th, be, w, wb)
+            as1, a1, b1, f_req, normal = deriv(th, be, vs, w, wb, sliding, direction)
             Y[k], Yd[k] = w, a1
         return Y, Yd

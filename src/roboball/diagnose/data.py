@@ -128,15 +128,70 @@ def _end_of_free_response(t, y, rel: Release, t_stop: float, noise: float, q: fl
     return float(min(tu[-1], t_stop)), "end of record"
 
 
+def _hold_releases(t, y, kind: str) -> list:
+    """Fallback release finder: the ends of hand holds away from rest.
+
+    roboball.releases accepts a release only when a DECAYING oscillation follows; a recording
+    of an undamped body (a shell with no dissipation, exactly what the shell baseline is)
+    has holds but no decay.  Here a release is the end of a stretch of at least 0.4 s in which
+    the smoothed speed stays below 5% of the record's peak speed (and five noise levels),
+    held more than 20 noise levels and 5% of the record's range away from its median."""
+    try:
+        sig = prepare_signal(t, y)
+    except ValueError:
+        return []
+    tu, ys, vs = sig.tu, sig.ys, np.abs(sig.vs)
+    peak = float(np.max(vs)) if len(vs) else 0.0
+    still = vs < max(0.05 * peak, 5.0 * sig.sigma_v)
+    level = float(np.median(ys))
+    span = float(np.ptp(ys))
+    n_min = int(round(0.4 / sig.dt))
+    runs, k = [], 0
+    while k < len(still):
+        if still[k]:
+            j = k
+            while j < len(still) and still[j]:
+                j += 1
+            runs.append((k, j))
+            k = j
+        else:
+            k += 1
+    holds = []
+    for a, b in runs:
+        hold = float(np.median(ys[a:b]))
+        if b - a >= n_min and b < len(ys) - n_min and abs(hold - level) > max(20.0 * sig.sigma, 0.05 * span):
+            holds.append((a, b, hold))
+    out = []
+    for i, (a, b, hold) in enumerate(holds):
+        k_end = holds[i + 1][0] if i + 1 < len(holds) else len(ys) - 1
+        seg = ys[b:k_end]
+        rest = float(np.median(seg)) if len(seg) else level
+        sgn = np.sign(seg - rest)
+        zc = tu[b:k_end][1:][np.diff(sgn) != 0]
+        half = float(np.median(np.diff(zc))) if len(zc) > 2 else float("nan")
+        out.append(Release(t_release_s=float(tu[b - 1]), t_end_s=float(tu[k_end]), i_release=-1, i_end=-1,
+                           y_release=hold, y_rest=rest, held_from_s=float(tu[a]), half_period_s=half,
+                           noise=sig.sigma, kind=kind))
+    return out
+
+
 def prepare(rec: Recording) -> Prepared:
     """Fit windows of every release in `rec` (normalised first)."""
     rec = normalise(rec)
     kind = rec.kind
     signal = rec.main_signal()
     t, y = rec.time, rec.signal(signal)
-    releases = require_releases(rec, signal)
+    notes = []
+    try:
+        releases = require_releases(rec, signal)
+    except RoboballError:
+        releases = _hold_releases(t, y, kind) if kind != "ramp" else []
+        if not releases:
+            raise
+        notes.append("the release finder found no release followed by a decaying oscillation; releases taken "
+                     "as the ends of hand holds (the body does not lose amplitude)")
     unit = "rad/s" if signal.endswith("_rad_s") else "rad"
-    windows, notes = [], []
+    windows = []
     noise = float(np.nanmedian([r.noise for r in releases if np.isfinite(r.noise)] or [1e-3]))
     quantum = 0.0
     try:

@@ -54,6 +54,7 @@ class Problem:
     pred: dict = field(default_factory=dict)      # window -> predicted y (all samples)
     iterations: int = 0
     converged: bool = False
+    max_iter: int | None = None      # per-problem limit (else the fit call's)
 
     @property
     def k(self) -> int:
@@ -271,6 +272,8 @@ class Engine:
             for p, nv, (r, J, pred) in zip(active, trials, results):
                 st = state[id(p)]
                 p.iterations += 1
+                if p.max_iter is not None and p.iterations >= p.max_iter:
+                    p.converged = True
                 rss = float(r @ r)
                 if not math.isfinite(rss):
                     rss = math.inf
@@ -291,7 +294,8 @@ class Engine:
                     if st["lam"] > 1e7 or st["rejects"] >= max_rejects:
                         p.converged = True
                         continue
-                still.append(p)
+                if not p.converged:
+                    still.append(p)
             active = still
         return problems
 

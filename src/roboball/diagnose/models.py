@@ -78,37 +78,41 @@ class ReducedModel:
 
     def effect_torque(self, q, v, P: dict, active: list):
         """Sum of the active effects' torques (NumPy laws, batch arrays)."""
-        return self.bind_effects(P, active)(q, v)
+        return self.bind_effects(P, active)(q, v, np.zeros_like(np.asarray(q, dtype=float)))
 
     def bind_effects(self, P: dict, active: list):
-        """A function (q, v) -> summed effect torque for the batch, with the parameters bound.
+        """A function add(q, v, tau) that adds the active effects' torques to `tau` in place
+        (and returns it), with the parameters bound.
 
         Each effect is evaluated only on the rows where it is active when those rows form one
         contiguous block (the diagnosis orders its batches by candidate, so a candidate screened
         alone occupies one block); otherwise on the whole batch (zero magnitude -> zero torque).
         """
-        calls = []
+        full, part = [], []
         for name in active:
             eff = fx.LIBRARY[name]
             first = np.asarray(P[f"{name}.{eff.params[0].name}"])
             rows = np.nonzero(first != 0.0)[0]
-            sl = slice(None)
+            sl = None
             if rows.size and rows[-1] - rows[0] + 1 == rows.size and rows.size < first.size:
                 sl = slice(int(rows[0]), int(rows[-1]) + 1)
-            kw = {p: np.asarray(P[f"{name}.{p}"], dtype=float)[sl] for p in eff.param_names}
+            kw = {p: np.asarray(P[f"{name}.{p}"], dtype=float)[sl if sl is not None else slice(None)]
+                  for p in eff.param_names}
             for key in eff.context:
                 kw[key] = self.context[key]
-            calls.append((eff.law, sl, kw))
+            kw["m"] = NP
+            if sl is None:
+                full.append((eff.law, kw))
+            else:
+                part.append((eff.law, sl, kw))
 
-        def torque(q, v):
-            tau = np.zeros_like(q)
-            for law, sl, kw in calls:
-                if sl.start is None:
-                    tau += law(q, v, **kw, m=NP)
-                else:
-                    tau[sl] += law(q[sl], v[sl], **kw, m=NP)
+        def add(q, v, tau):
+            for law, kw in full:
+                tau += law(q, v, **kw)
+            for law, sl, kw in part:
+                tau[sl] += law(q[sl], v[sl], **kw)
             return tau
-        return torque
+        return add
 
 
 def active_effects(P: dict, names) -> list:
@@ -123,21 +127,28 @@ def active_effects(P: dict, names) -> list:
 
 
 def _rk2_1dof(accel, q0, v0, n_steps, dt):
-    """Explicit midpoint integration of qdd = accel(q, v) for a batch; returns Q, V."""
+    """Explicit midpoint integration of qdd = accel(q, v) for a batch; returns Q, V.
+    (In-place NumPy operations: the per-step cost is Python overhead, not arithmetic.)"""
     B = q0.shape[0]
     Q = np.empty((n_steps + 1, B))
     V = np.empty((n_steps + 1, B))
     q = q0.astype(float).copy()
     v = v0.astype(float).copy()
+    qm, vm, tmp = np.empty(B), np.empty(B), np.empty(B)
     Q[0], V[0] = q, v
     h2 = 0.5 * dt
+    mul, add = np.multiply, np.add
     for k in range(1, n_steps + 1):
         a1 = accel(q, v)
-        qm = q + h2 * v
-        vm = v + h2 * a1
+        mul(v, h2, out=tmp)
+        add(q, tmp, out=qm)
+        mul(a1, h2, out=tmp)
+        add(v, tmp, out=vm)
         a2 = accel(qm, vm)
-        q += dt * vm
-        v += dt * a2
+        mul(vm, dt, out=tmp)
+        q += tmp
+        mul(a2, dt, out=tmp)
+        v += tmp
         Q[k] = q
         V[k] = v
     return Q, V
@@ -171,11 +182,20 @@ class StandModel(ReducedModel):
         k_g = self.k_g
         extra = self.bind_effects(P, active) if active else None
 
+        cv = np.empty_like(c) if c.ndim else None
+
         def accel(q, v):
-            tau = -k_g * np.sin(q) - c * v
+            tau = np.sin(q)
+            tau *= -k_g
+            if cv is not None:
+                np.multiply(c, v, out=cv)
+                tau -= cv
+            else:
+                tau -= c * v
             if extra is not None:
-                tau += extra(q, v)
-            return tau * inv_i
+                extra(q, v, tau)
+            tau *= inv_i
+            return tau
 
         q0 = np.asarray(q0, dtype=float) - self.rest
         Q, V = _rk2_1dof(accel, q0, np.zeros_like(q0), n_steps, dt)
@@ -226,10 +246,17 @@ class ShellModel(ReducedModel):
 
         def accel(q, v):
             s = np.sin(q)
-            tau = -k_g * s - mrd * s * v * v
+            tau = v * v
+            tau *= -mrd
+            tau -= k_g
+            tau *= s
             if extra is not None:
-                tau += extra(q, v)
-            return tau / (m0 - mrd2 * np.cos(q))
+                extra(q, v, tau)
+            den = np.cos(q)
+            den *= -mrd2
+            den += m0
+            tau /= den
+            return tau
 
         q0 = np.asarray(q0, dtype=float) - self.rest
         Q, V = _rk2_1dof(accel, q0, np.zeros_like(q0), n_steps, dt)

@@ -119,8 +119,11 @@ def _figures(d: Diagnosis, out: Path, drake_base, drake_aug, located_base, locat
         axr.plot(t, drake_base[w.index] - w.y, color="tab:red", lw=0.8, label="baseline, fitted")
         if d.chosen:
             axr.plot(t, drake_aug[w.index] - w.y, color="tab:blue", lw=0.8, label="augmented, fitted")
+        cvb = d.baseline.cv_pred.get(w.index)
+        if cvb is not None and np.any(np.isfinite(cvb)):
+            axr.plot(t, cvb - w.y, color="tab:orange", lw=0.7, ls="--", label="baseline, held out")
         cv = d.final.cv_pred.get(w.index)
-        if cv is not None and np.any(np.isfinite(cv)):
+        if d.chosen and cv is not None and np.any(np.isfinite(cv)):
             axr.plot(t, cv - w.y, color="tab:green", lw=0.8, ls="--", label="augmented, held out")
         axr.axhline(0, color="k", lw=0.5)
         axr.set_xlabel("time since release (s)")
