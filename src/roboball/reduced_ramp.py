@@ -49,6 +49,7 @@ class RampModel(ReducedModel):
     """Planar ramp descent: rolling shell + pendulum about the driveshaft."""
 
     release_params = ("t_shift",)
+    ts_bound = 0.05            # s: the start of motion is sharp (hinge fit of the release finder)
 
     def __init__(self, robot: RobotFacts | None = None, ramp_angle_deg: float | None = None):
         robot = robot or load_robot()

@@ -7,17 +7,18 @@ responses after each release that the baseline must explain.  `prepare` finds th
 * start: 0.05 s before the release instant found by the release finder (the model holds the
   release value until its own, fitted, release instant);
 * end (stands, shell): the free response ends when a hand takes the body again or the record
-  ends.  A free, decaying oscillation never leaves the range of its previous full swing, and a
-  body that has stopped stays where it stopped.  So after the last turning point the window
-  runs on while the signal stays inside that range (or, once it has come to rest, within a few
-  noise levels of its rest) and ends 0.15 s before it leaves them; if it leaves the range
-  during the half swing after the last turning point, a hand took over mid-swing and the
-  window ends at that turning point.  At most 3 s of stillness are kept after the release
-  finder's end of the response, and never past the next hold;
+  ends.  A body that has come to rest stays where it stopped: then the window runs on while
+  the signal stays within a few noise levels of that rest (at most 3 s past the release
+  finder's end of the response, never past the next hold) and ends 0.15 s before it leaves
+  it.  A body still swinging when a hand takes it is cut at its last turning point: the hand
+  may have grabbed anywhere in the half swing after it;
 * ramp: from the start of motion to `ramp_exit_s` (the paper uses only data before the robot
   leaves the ramp).
 
 The noise level (sensor noise and quantisation) comes from the release finder's estimate.
+Undamped records (the shell baseline has no dissipation at all) have holds but no decaying
+oscillation, which roboball.releases does not accept; `_hold_releases` then takes the ends of
+the holds as releases.
 """
 from __future__ import annotations
 

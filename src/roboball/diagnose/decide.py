@@ -1,27 +1,35 @@
-"""Decide which physics the baseline leaves out: greedy forward selection by simulation error.
+"""Decide which physics the baseline leaves out: stepwise selection by simulation error.
 
-1. Fit the baseline (its own parameters and every release state) to the whole recording.
+1. Fit the baseline (its own parameters and every release state) to the whole recording and
+   cross-validate it.
 2. Each round, every vocabulary effect that applies to the experiment and is not yet in the
-   model is added in turn: started from the best of a small grid of magnitudes, then refitted
-   with everything else by Levenberg-Marquardt on the SIMULATION error over all releases
-   (`roboball.diagnose.fit`).  The `top_k` best screened candidates are refitted to
-   convergence and cross-validated: leave one release out (fit on the others, then fit only
-   the held-out release's state with the model frozen and score it), or for a recording with a
-   single release, three contiguous time blocks.
-3. The best candidate (lowest BIC) is kept only if it improves BOTH an information criterion
-   (delta BIC below -`bic_min`) AND the held-out RMSE (by at least `cv_gain`), and its
-   magnitude's 95% interval excludes zero.  Rounds stop when nothing qualifies, the residual is
-   white (lag-1 autocorrelation below `white_rho` and RMS within `white_factor` noise levels),
-   or `max_effects` effects were added.  Several effects may be kept.
-4. A backward pass drops any kept effect whose removal costs neither BIC nor held-out error
-   (an early pick made redundant by a later one).
+   model is added in turn and fitted with everything else by Levenberg-Marquardt on the
+   SIMULATION error over all releases (`roboball.diagnose.fit`).  Starts: the best point of a
+   dense grid of the effect's magnitudes (roboball.physics.effects.Param.grid_values), tried on
+   the current model's values and on "nominal" values (baseline parameters at their defaults,
+   release states at the hold levels, earlier effects rescaled by 0.1-1.6), because a model
+   that misses strong physics distorts its own fit and dry friction's cost has narrow basins.
+   After a few screening iterations the `top_k` best candidates are refitted to convergence and
+   cross-validated: leave one release out (fit on the others, then fit only the held-out
+   release's state with the model frozen and score it), or for a recording with a single
+   release, three contiguous time blocks.
+3. Keep rule.  The best candidate (lowest BIC) is kept only if
+   - it lowers the BIC, n ln(RSS / n) + k ln(n) (k fitted parameters including the release
+     states), by more than `bic_min` = 10 ("very strong" evidence);
+   - it lowers the held-out RMS by at least `cv_gain` = 5%;
+   - it is material: it lowers the held-out mean square by at least `material_noise` = 4
+     noise variances (an RMS of two noise levels), so the sub-noise corrections that absorb
+     small model-form differences (integrator, contact compliance) are not reported;
+   - the 95% interval of its magnitude excludes zero.
+   Rounds stop when nothing qualifies, the residual is white (lag-1 autocorrelation below
+   `white_rho` and RMS within `white_factor` noise levels), or `max_effects` were added.
+4. A backward pass drops an earlier effect that no longer passes the keep rule against the
+   model without it (made redundant by a later pick); a swap pass replaces a chosen effect by
+   an unchosen one when that lowers the BIC by more than `bic_min` without raising the
+   held-out error (greedy paths can go through an effect that imitates a combination).
 
-Statistics.  The residual of a model that misses physics is strongly autocorrelated, so the
-BIC uses the effective number of independent samples n_eff = n (1 - rho1) / (1 + rho1) of the
-larger model's residual (rho1: lag-1 autocorrelation within releases):
-    BIC = n_eff ln(RSS / n) + k ln(n_eff),
-with k the number of fitted parameters (release states included).  95% intervals come from the
-Jacobian at the optimum, cov = s^2 (J^T J)^-1 inflated by n / n_eff.
+95% intervals come from the Jacobian at the optimum, cov = s^2 (J^T J)^-1, inflated by
+n / n_eff with n_eff = n (1 - rho1) / (1 + rho1) for the residual's lag-1 autocorrelation rho1.
 
 Verdict: `adequate` when nothing was added and the baseline's residual is at the noise level
 or shows no structure; `augmented` when effects were added and the augmented model explains
@@ -54,7 +62,7 @@ class Settings:
     bic_min: float = 10.0
     cv_gain: float = 0.05
     material_noise: float = 4.0       # an effect must lower the held-out mean square by >= 4 sigma^2
-    material_share: float = 0.0       # ... (and, if set, this share of the baseline's)
+    material_share: float = 0.0       # ... (and, if set, this share of the baseline's held-out mean square)
     max_effects: int = 4
     white_rho: float = 0.3
     white_factor: float = 1.5

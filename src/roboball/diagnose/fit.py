@@ -26,7 +26,7 @@ from ..physics import effects as fx
 from .data import Prepared
 from .models import DT, ReducedModel, hermite
 
-TS_BOUND = 0.2        # s: release instant may move this far from the release finder's
+TS_BOUND = 0.2        # s: release instant may move this far from the release finder's (models may narrow it)
 Q0_BOUND = 0.1        # rad: release value may move this far from the hold level
 FD_REL = 0.01         # forward-difference step, in units of the parameter's typical size
 DIVERGED = 1e3        # value given to a simulation that blew up
@@ -82,7 +82,8 @@ class Engine:
                 self.info[f"{name}.{p.name}"] = (p.typical, p.lo, p.hi)
         for w in prep.windows:
             self.info[f"q0@{w.index}"] = (0.01, w.q0 - Q0_BOUND, w.q0 + Q0_BOUND)
-            self.info[f"ts@{w.index}"] = (0.01, -TS_BOUND, TS_BOUND)
+            tb = getattr(model, "ts_bound", TS_BOUND)
+            self.info[f"ts@{w.index}"] = (0.01, -tb, tb)
         self.n_sims = 0
         self.n_calls = 0
         self.sim_time = 0.0

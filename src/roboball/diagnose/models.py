@@ -73,6 +73,7 @@ class ReducedModel:
     base_params: tuple = ()
     candidates: tuple = ()
     release_params: tuple = ("q0", "t_shift")
+    ts_bound: float = 0.1      # s: how far the fitted release instant may move from the finder's
     context: dict = {}
     description: str = ""
 

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..atomic import savefig_atomic, write_json_atomic, write_text_atomic
+from ..atomic import savefig_atomic, write_csv_atomic, write_json_atomic, write_text_atomic
 from ..physics import effects as fx
 from .decide import Diagnosis
 from .drake import rmse as drake_rmse
@@ -58,6 +58,14 @@ def baseline_fitted(d: Diagnosis) -> dict:
     return out
 
 
+# On the ramp the drive rate rises and levels off; the signatures read differently there.
+RAMP_EXPLAINS = {
+    "viscous_damping": "a torque proportional to the drive rate: the descent levels off towards a top speed",
+    "quadratic_drag": "a torque growing with the square of the drive rate: the top speed is reached sooner",
+    "rolling_resistance": "a constant torque opposing rolling: slower from the start, by the same torque at every speed",
+}
+
+
 def missing_physics(d: Diagnosis) -> list:
     out = []
     dbic = {}
@@ -70,7 +78,8 @@ def missing_physics(d: Diagnosis) -> list:
         params = {p: _round(d.final.values[f"{e}.{p}"]) for p in eff.param_names}
         ci = {p: [_round(d.ci95[f"{e}.{p}"][0]), _round(d.ci95[f"{e}.{p}"][1])] for p in eff.param_names}
         out.append({"effect": e, "dof": d.model.dof, "parameters": params, "ci95": ci,
-                    "delta_bic": _round(dbic.get(e, d.final.delta_bic), 5), "explains": eff.explains})
+                    "delta_bic": _round(dbic.get(e, d.final.delta_bic), 5),
+                    "explains": RAMP_EXPLAINS.get(e, eff.explains) if d.prep.kind == "ramp" else eff.explains})
     return out
 
 
@@ -177,6 +186,22 @@ def _figures(d: Diagnosis, out: Path, drake_base, drake_aug, located_base, locat
     plt.close(fig)
     files.append(f.name)
     return files
+
+
+def predictions_table(d: Diagnosis, drake_base: dict, drake_aug: dict):
+    """Every fitted sample with the recording, the baseline and augmented Drake predictions and
+    the augmented model's held-out (cross-validated) reduced-model prediction; the pipeline
+    scores ramp runs (PME, eq. 12) from this table."""
+    import pandas as pd
+    unit = "rad_s" if d.prep.unit == "rad/s" else "rad"
+    frames = []
+    for w in d.prep.windows:
+        cv = d.final.cv_pred.get(w.index, np.full(w.n, np.nan))
+        frames.append(pd.DataFrame({
+            "time_s": w.t, "release": w.index + 1, "time_since_release_s": w.t - w.t0,
+            f"measured_{unit}": w.y, f"baseline_drake_{unit}": drake_base[w.index],
+            f"augmented_drake_{unit}": drake_aug[w.index], f"augmented_heldout_{unit}": cv}))
+    return pd.concat(frames, ignore_index=True)
 
 
 def _md_table(rows, header) -> str:
@@ -289,6 +314,7 @@ def write(d: Diagnosis, out_dir, drake: bool = True) -> dict:
         "notes": d.prep.notes,
     }
     write_json_atomic(out / "details.json", _clean(details))
+    write_csv_atomic(predictions_table(d, drake_base, drake_aug), out / "predictions.csv")
     write_text_atomic(out / "report.md", report_md(d, js, loc_base, loc_final, figures, stats))
     write_json_atomic(out / "diagnosis.json", _clean(js))
     return js
