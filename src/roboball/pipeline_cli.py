@@ -11,7 +11,7 @@ import sys
 
 from .cli import OneLineArgumentParser, register_command
 
-STAGE_MODULES = ("roboball.pipeline.ident", "roboball.pipeline.simulation", "roboball.pipeline.figures",
+STAGE_MODULES = ("roboball.pipeline.ident", "roboball.pipeline.simulation", "roboball.pipeline.figures", "roboball.pipeline.friction_figs",
                  "roboball.pipeline.report", "roboball.pipeline.friction", "roboball.pipeline.deflating")
 
 

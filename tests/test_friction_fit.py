@@ -1,0 +1,160 @@
+"""Friction identification (roboball.identify.friction_fit): known parameters are recovered from
+simulated stand swings, chains resume from HDF5, model comparison prefers the true law, and
+convergence is reported honestly.
+
+The fits here are kept small (short swings, few walkers, a low autocorrelation multiple) so
+the file runs in about a minute; the library's default multiple is 50."""
+import inspect
+import json
+
+import h5py
+import numpy as np
+import pytest
+
+from roboball import reduced as R
+from roboball.config import load_robot
+from roboball.errors import ConfigError, RoboballError
+from roboball.identify import friction_fit as F
+
+ROBOT = load_robot()
+MAJD_TRUE = {"f_w": 0.2, "f_c": 0.45, "sigma": 3.0, "omega_c": 0.3, "n": 2.0}
+
+
+def synthetic_stand(law, true, seed, angles=(0.9, -1.0, 0.7), duration=3.5, noise=1e-3, quantum=1e-3,
+                    kind="steer_stand"):
+    """Three releases simulated finely (0.5 ms) at `true`, sampled irregularly (60-125 Hz with
+    gaps), Gaussian noise and quantisation added; the release angle handed to the fit is off by
+    a few mrad (as a release finder would give it)."""
+    rng = np.random.default_rng(seed)
+    segs, t0 = [], 2.0
+    for a in angles:
+        t = t0 + np.concatenate([[0.0], np.cumsum(rng.uniform(0.008, 0.016, int(duration * 130)))])
+        t = t[t < t0 + duration]
+        t = np.sort(np.concatenate([t, t[rng.choice(t.size, 3)]]))       # exact duplicate stamps
+        y = R.simulate_stand(kind, t, a, 0.0, law, {k: np.array([v]) for k, v in true.items()}, t0=t0, dt=5e-4)[0]
+        y = np.round((y + rng.normal(0.0, noise, y.size)) / quantum) * quantum
+        segs.append((t, y, {"t_release_s": t0, "t_end_s": t0 + duration, "y_release": a + rng.normal(0, 0.003)}))
+        t0 += duration + 4.0
+    return segs
+
+
+def test_library_defaults_are_the_strict_ones():
+    sig = inspect.signature(F.fit_segments)
+    assert sig.parameters["autocorr_multiple"].default == 50
+    assert inspect.signature(F.fit).parameters["autocorr_multiple"].default == 50
+    assert inspect.signature(F.sample_posterior).parameters["autocorr_multiple"].default == 50
+
+
+def test_majd_parameters_are_recovered_with_covering_intervals(tmp_path):
+    segs = synthetic_stand("majd", MAJD_TRUE, seed=11)
+    res, samples = F.fit_segments("steer_stand", "majd", segs, tmp_path / "majd.h5", None, seed=5, walkers=32,
+                                  autocorr_multiple=8, max_steps=600, chunk=50, min_steps=50)
+    for name, truth in MAJD_TRUE.items():
+        p = res["parameters"][name]
+        # within 3 posterior sd of the median (sd from the 95% interval): five parameters
+        # each inside their own 95% interval fail together one time in four by chance
+        sd = (p["ci95_high"] - p["ci95_low"]) / 3.92
+        assert abs(p["median"] - truth) < 3 * sd, (name, p, res["notes"])
+        assert p["unit"] == F.friction.UNITS[name]
+    # the well-determined ones are tight; sigma and n only through their product near n = 1
+    for name in ("f_w", "f_c"):
+        p = res["parameters"][name]
+        assert (p["ci95_high"] - p["ci95_low"]) / MAJD_TRUE[name] < 0.1
+    noise = res["parameters"]["noise_rad"]
+    assert noise["ci95_low"] < np.sqrt(1e-6 + 1e-6 / 12) < noise["ci95_high"] * 1.05
+    conv = res["convergence"]
+    assert conv["converged"], res["notes"]
+    assert conv["chain_over_tau"] >= 8 and conv["steps"] - conv["burn"] >= 8 * conv["max_tau"]
+    assert 0.05 < conv["acceptance_fraction"] < 0.9 and conv["ess_min"] > 0
+    assert set(samples.columns) == {*MAJD_TRUE, "noise_rad"} and len(samples) > 100
+    assert len(res["release_angles_rad"]) == 3
+    assert np.allclose(res["release_angles_rad"], [0.9, -1.0, 0.7], atol=3e-3)
+    assert res["integration"]["parameter_shift_sd"] <= 0.2 and res["integration"]["step_error_rad"] < 0.2 * noise["median"]
+    json.dumps(res)                                               # JSON-serialisable as it is
+
+
+def test_chain_resumes_from_hdf5_and_a_seed_reproduces_it(tmp_path):
+    segs = synthetic_stand("viscous", {"c": 0.3}, seed=3, angles=(0.6, -0.5), duration=2.0)
+    kw = dict(seed=9, walkers=8, autocorr_multiple=1e6, chunk=20, min_steps=20)
+    # uninterrupted run to 60 steps
+    full, _ = F.fit_segments("steer_stand", "viscous", segs, tmp_path / "full.h5", None, max_steps=60, **kw)
+    assert full["convergence"]["converged"] is False and full["convergence"]["steps"] == 60
+    assert any("NOT CONVERGED" in n for n in full["notes"])
+    # interrupted after 40 steps (a smaller cap stands in for the kill), then resumed to 60
+    part, _ = F.fit_segments("steer_stand", "viscous", segs, tmp_path / "part.h5", None, max_steps=40, **kw)
+    assert part["convergence"]["steps"] == 40
+    resumed, _ = F.fit_segments("steer_stand", "viscous", segs, tmp_path / "part.h5", None, max_steps=60, **kw)
+    assert resumed["convergence"]["resumed_from_steps"] == 40 and resumed["convergence"]["steps"] == 60
+    with h5py.File(tmp_path / "full.h5", "r") as a, h5py.File(tmp_path / "part.h5", "r") as b:
+        ca, cb = a["mcmc"]["chain"][:], b["mcmc"]["chain"][:]
+    # c, the noise level and the two release angles are sampled; walkers raised to 2 ndim + 2
+    assert ca.shape == cb.shape == (60, 10, 4)
+    assert np.array_equal(ca, cb)                                 # same seed, same steps: same chain
+    # a chain of different data is refused, not silently continued
+    other = synthetic_stand("viscous", {"c": 0.5}, seed=4, angles=(0.6, -0.5), duration=2.0)
+    with pytest.raises(RoboballError, match="different fit"):
+        F.fit_segments("steer_stand", "viscous", other, tmp_path / "part.h5", None, max_steps=80, **kw)
+
+
+def test_model_comparison_prefers_the_true_law(tmp_path):
+    cv = dict(ROBOT.friction_table1["coulomb_viscous"])
+    true = {"mu_s": cv["mu_s"], "mu_d": cv["mu_d"], "c": cv["c"]}
+    segs = synthetic_stand("coulomb_viscous", {**true, "v_tol": cv["v_tol"]}, seed=21, angles=(0.8, -0.7),
+                           duration=3.0)
+    kw = dict(seed=2, walkers=16, autocorr_multiple=1e6, max_steps=20, chunk=20, min_steps=20)
+    fits = []
+    for law in ("viscous", "coulomb_viscous"):
+        res, _ = F.fit_segments("steer_stand", law, segs, tmp_path / f"{law}.h5", None, **kw)
+        fits.append(res)
+    table = F.comparison(fits)
+    assert list(table["law"])[0] == "coulomb_viscous"
+    bic = dict(zip(table["law"], table["bic"]))
+    assert bic["viscous"] - bic["coulomb_viscous"] > 100
+    rmse = dict(zip(table["law"], table["rmse_rad"]))
+    assert rmse["coulomb_viscous"] < 2e-3 < rmse["viscous"]
+    assert {"loglik_map", "loglik", "waic", "delta_bic", "n_params", "converged"} <= set(table.columns)
+    # fixed v_tol is reported, and the fitted Coulomb levels are the true ones
+    assert fits[1]["fixed"] == {"v_tol": cv["v_tol"]}
+    assert fits[1]["parameters"]["mu_d"]["lsq"] == pytest.approx(true["mu_d"], rel=0.05)
+
+
+def test_priors_file_and_blocks_are_validated():
+    pri = F.law_priors("steer", "majd", None)
+    assert set(pri) == set(MAJD_TRUE)
+    assert pri["n"].shift == 1.0 and pri["n"].low >= 1.0          # n sampled as log(n - 1)
+    table1 = ROBOT.friction_table1
+    for joint, law, key in (("steer", "viscous", "viscous"), ("steer", "majd", "majd_steer"),
+                            ("drive", "majd", "majd_drive")):
+        for name, p in F.law_priors(joint, law, None).items():
+            assert p.low <= table1[key][name] <= p.high               # the paper's values are inside
+    with pytest.raises(ConfigError, match="no prior for"):
+        F.law_priors("steer", "majd", {"f_w": {"type": "loguniform", "low": 0.01, "high": 1.0, "start": 0.1}})
+    with pytest.raises(ConfigError, match="low"):
+        F.law_priors("steer", "viscous", {"c": {"type": "loguniform", "low": 1.0, "high": 0.1, "start": 0.5}})
+    with pytest.raises(ConfigError, match="c"):
+        F.law_priors("steer", "viscous", {"c": {"type": "gaussian", "low": 0.1, "high": 1.0, "start": 0.5}})
+
+
+def test_prior_density_on_the_sampling_coordinate():
+    """Drawn u-samples follow logpdf_u (checked on a histogram) for each prior type and shift."""
+    rng = np.random.default_rng(0)
+    for spec, shift in (({"type": "loguniform", "low": 0.01, "high": 10.0}, 0.0),
+                        ({"type": "uniform", "low": 1.0, "high": 5.0}, 1.0),
+                        ({"type": "lognormal", "median": 0.3, "sigma_log": 0.7, "low": 0.05, "high": 3.0}, 0.0)):
+        p = F.Prior.from_spec("x", spec, shift=shift)
+        u = p.sample_u(rng, 200000)
+        hist, edges = np.histogram(u, bins=40, density=True)
+        mid = 0.5 * (edges[1:] + edges[:-1])
+        dens = np.exp(p.logpdf_u(mid))
+        dens /= np.sum(dens * np.diff(edges))
+        assert np.max(np.abs(hist - dens)) < 0.05 * np.max(dens)
+
+
+def test_bad_segments_are_one_line_errors():
+    t = np.linspace(0, 5, 400)
+    with pytest.raises(RoboballError, match="only 2 samples after the release"):
+        F.segments_from_arrays([(t, np.sin(t), 4.98)])
+    with pytest.raises(RoboballError, match="times but"):
+        F.segments_from_arrays([(t, np.sin(t)[:-1], 1.0)])
+    with pytest.raises(RoboballError, match="stand recording"):
+        F.fit_segments("shell_rock", "viscous", [(t, np.sin(t), 1.0)], "x.h5")
