@@ -16,7 +16,8 @@ from roboball.diagnose.decide import Settings
 
 REPO = Path(__file__).resolve().parents[1]
 BAD = REPO / "tests" / "bad_recordings"
-REAL_STEER = Path("/work/shared/data/roboball_real/steering_static_stand_response.csv")
+# The real logs sit in ../shared beside the repository (in CI as here), never inside it.
+REAL_STEER = Path(__file__).resolve().parents[2] / "shared/data/roboball_real/steering_static_stand_response.csv"
 FAST = Settings(max_effects=2)
 
 

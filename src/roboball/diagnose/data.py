@@ -4,8 +4,9 @@ A recording holds hand-held phases (move, hold, let go) that no model can simula
 responses after each release that the baseline must explain.  `prepare` finds the releases
 (roboball.releases) and cuts one fit window per release:
 
-* start: 0.05 s before the release instant found by the release finder (the model holds the
-  release value until its own, fitted, release instant);
+* start: at the first turning point of the free swing after the release (see below), or,
+  when too few swings follow to spare one, 0.05 s before the release instant found by the
+  release finder (the model holds the release value until its own, fitted, release instant);
 * end (stands, shell): the free response ends when a hand takes the body again or the record
   ends.  A body that has come to rest stays where it stopped: then the window runs on while
   the signal stays within a few noise levels of that rest (at most 3 s past the release
@@ -14,6 +15,20 @@ responses after each release that the baseline must explain.  `prepare` finds th
   may have grabbed anywhere in the half swing after it;
 * ramp: from the start of motion to `ramp_exit_s` (the paper uses only data before the robot
   leaves the ramp).
+
+Why the first turning point.  The let-go is the one part of a hand-made release that no model
+can simulate: the hand does not open instantly at rest, it may lower the body for a while
+first, accompany it into its swing, or push it off.  On the real steer-stand log the hand
+lowered the pendulum slowly for 0.2 s before the first release and the first half swing then
+took 0.1 s longer than a free swing from the let-go instant can (the second release's took
+less): a model started at the let-go carries that phase error into every later swing, and
+the phase error (0.3-0.5 rad of residual) swamps the physics being diagnosed.  The first
+turning point after the release is the first state known without the hand: zero velocity at
+the extremum, which a parabola through the raw samples around it locates (instant and
+value).  The fit starts the model there, at rest, with the instant and value fitted as for a
+release.  Only the largest half swing is given up, so the start moves there only when at
+least `MIN_TURNS_AFTER` further turning points follow within the window (a body stopped by
+strong dry friction after one overshoot keeps its release start).
 
 The noise level (sensor noise and quantisation) comes from the release finder's estimate.
 Undamped records (the shell baseline has no dissipation at all) have holds but no decaying
@@ -35,6 +50,7 @@ from ..releases import Release, prepare_signal, require_releases, zigzag
 
 PRE_S = 0.05
 STILL_KEEP_S = 3.0
+MIN_TURNS_AFTER = 3     # turning points that must follow the first one for the window to start there
 
 
 @dataclass
@@ -49,6 +65,7 @@ class Window:
     q0: float
     release: Release
     end_reason: str = ""
+    start: str = "release"          # "release" (the hand lets go) or "turning point" (first one after it)
 
     @property
     def duration(self) -> float:
@@ -127,6 +144,45 @@ def _end_of_free_response(t, y, rel: Release, t_stop: float, noise: float, q: fl
         # point (the hand may have grabbed anywhere in the half swing after it).
         return t_last, "hand took over after the last turning point"
     return float(min(tu[-1], t_stop)), "end of record"
+
+
+def _first_turning_point(t, y, rel: Release, t_end: float) -> tuple[float, float] | None:
+    """Instant and value of the first turning point of the free swing after release `rel`
+    (see the module docstring), or None when fewer than MIN_TURNS_AFTER turning points follow
+    it before `t_end`.
+
+    The turning points are those of the smoothed signal with the hysteresis of
+    `_end_of_free_response`; the first is refined on the raw samples by the vertex of a
+    least-squares parabola through the samples within a fifth of a half period of it
+    (the raw maximum of a jittery, quantised log is off by a sample or two)."""
+    sel = (t >= rel.t_release_s) & (t <= t_end)
+    if sel.sum() < 20:
+        return None
+    try:
+        sig = prepare_signal(t[sel], y[sel])
+    except ValueError:
+        return None
+    tu, ys = sig.tu, sig.ys
+    amp = abs(rel.y_release - rel.y_rest)
+    ext = zigzag(ys, max(sig.hysteresis, 0.02 * amp))
+    ext = ext[tu[ext] > rel.t_release_s + 0.05]
+    if len(ext) < 1 + MIN_TURNS_AFTER:
+        return None
+    k = int(ext[0])
+    t_e, y_e = float(tu[k]), float(ys[k])
+    # The first turning point lies on the other side of rest from the release.
+    if (y_e - rel.y_rest) * (rel.y_release - rel.y_rest) >= 0:
+        return None
+    half = rel.half_period_s if np.isfinite(rel.half_period_s) else float(tu[int(ext[1])] - t_e)
+    near = np.abs(t - t_e) <= 0.2 * half
+    if near.sum() >= 5:
+        tc = t[near] - t_e
+        a, b, c = np.polyfit(tc, y[near], 2)
+        if a * (y_e - rel.y_rest) < 0:          # curved towards rest, as a turning point is
+            tv = -b / (2.0 * a)
+            if abs(tv) <= 0.2 * half:
+                return t_e + float(tv), float(c - b * b / (4.0 * a))
+    return t_e, y_e
 
 
 def _hold_releases(t, y, kind: str) -> list:
@@ -208,13 +264,19 @@ def prepare(rec: Recording) -> Prepared:
         else:
             t_stop = releases[i + 1].held_from_s if i + 1 < len(releases) else float(t[-1])
             t_end, reason = _end_of_free_response(t, y, rel, t_stop, noise, quantum)
-        sel = (t >= rel.t_release_s - PRE_S) & (t <= t_end)
+        t0, q0, start = float(rel.t_release_s), (float(rel.y_release) if kind != "ramp" else 0.0), "release"
+        sel = (t >= t0 - PRE_S) & (t <= t_end)
+        if kind != "ramp":
+            turn = _first_turning_point(t, y, rel, t_end)
+            if turn is not None:
+                t0, q0 = turn
+                start = "turning point"
+                sel = (t >= t0) & (t <= t_end)
         if sel.sum() < 20:
             notes.append(f"release {i + 1} at {rel.t_release_s:.2f} s: too few samples, skipped")
             continue
-        q0 = float(rel.y_release) if kind != "ramp" else 0.0
-        windows.append(Window(index=len(windows), t0=float(rel.t_release_s), t=t[sel], y=y[sel], q0=q0,
-                              release=rel, end_reason=reason))
+        windows.append(Window(index=len(windows), t0=t0, t=t[sel], y=y[sel], q0=q0,
+                              release=rel, end_reason=reason, start=start))
     if not windows:
         raise RoboballError(f"{rec.label}: {signal}: no release long enough to diagnose (need 20 samples after a release)")
     return Prepared(recording=rec, kind=kind, signal=signal, unit=unit, windows=windows, noise=noise,

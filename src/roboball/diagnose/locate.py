@@ -13,7 +13,7 @@ model, into regimes that point at different physics:
 | near_stop | last swings: amplitude below 5% of the release's, still moving | dry friction |
 | rest_offset | the body has come to rest | centre of mass offset, dry friction |
 | late_decay | last third of the free response's moving time | damping law |
-| release | first 0.3 s after the release | release state, hand |
+| release | first 0.3 s after the release (windows that start at the let-go only) | release state, hand |
 | ramp_exit | last 0.3 s before the robot leaves the ramp | contact change at the exit |
 
 (ramp runs: speed regimes on the drive rate's own size, `release` and `ramp_exit`.)  Regimes
@@ -74,7 +74,8 @@ def classify(prep: Prepared) -> dict:
         lab = {r: np.zeros(n, bool) for r in REGIMES}
         lab["high_speed"] = after & (speed > 0.6 * vpk)
         lab["low_speed"] = after & (speed < 0.15 * vpk)
-        lab["release"] = (t >= w.t0 - 0.05) & (t < w.t0 + 0.3)
+        if w.start == "release":       # (a window fitted from its first turning point has no let-go)
+            lab["release"] = (t >= w.t0 - 0.05) & (t < w.t0 + 0.3)
         if prep.kind == "ramp":
             lab["ramp_exit"] = t > t[-1] - 0.3
         else:

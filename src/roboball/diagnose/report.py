@@ -124,7 +124,11 @@ def _figures(d: Diagnosis, out: Path, drake_base, drake_aug, located_base, locat
         ax.plot(t, drake_base[w.index], color="tab:red", lw=1.0, label="baseline (Drake)")
         if d.chosen:
             ax.plot(t, drake_aug[w.index], color="tab:blue", lw=1.0, label="augmented (Drake)")
-        ax.set_title(f"release {w.index + 1} at {w.t0:.2f} s")
+        if w.start == "turning point":
+            ax.set_title(f"release {w.index + 1} (let go {w.release.t_release_s:.2f} s), "
+                         f"fitted from its first turning point, {w.t0:.2f} s", fontsize=9)
+        else:
+            ax.set_title(f"release {w.index + 1} at {w.t0:.2f} s")
         axr.plot(t, drake_base[w.index] - w.y, color="tab:red", lw=0.8, label="baseline, fitted")
         if d.chosen:
             axr.plot(t, drake_aug[w.index] - w.y, color="tab:blue", lw=0.8, label="augmented, fitted")
@@ -135,7 +139,7 @@ def _figures(d: Diagnosis, out: Path, drake_base, drake_aug, located_base, locat
         if d.chosen and cv is not None and np.any(np.isfinite(cv)):
             axr.plot(t, cv - w.y, color="tab:green", lw=0.8, ls="--", label="augmented, held out")
         axr.axhline(0, color="k", lw=0.5)
-        axr.set_xlabel("time since release (s)")
+        axr.set_xlabel("time since the window's start (s)")
         if j == 0:
             ax.set_ylabel(prep.signal)
             axr.set_ylabel(f"residual ({prep.unit})")
@@ -225,7 +229,10 @@ def report_md(d: Diagnosis, js: dict, located_base, located_final, figures, drak
              f"Baseline: {d.model.description}.", "",
              f"Fitted inside the baseline: " + ", ".join(f"{k} = {v}" for k, v in js["baseline"]["fitted"].items()),
              "", f"Noise level of the recording: {prep.noise:.3g} {u}; {len(prep.windows)} release(s) "
-             f"({', '.join(f'{w.t0:.2f}-{w.t[-1]:.2f} s ({w.end_reason})' for w in prep.windows)}).", ""]
+             f"({', '.join(f'{w.t0:.2f}-{w.t[-1]:.2f} s (from the {w.start}; {w.end_reason})' for w in prep.windows)}).",
+             "", "A window starts at the first turning point after the hand lets go when enough swings follow "
+             "(the let-go itself, where the hand may still touch the body, is not simulated); the fitted "
+             "release_i_s / release_i_rad are then the instant and value of that turning point.", ""]
     lines += ["## Where the baseline misses", "",
               _md_table([(f"{w['start_s']:.2f}-{w['end_s']:.2f} s", w["regime"], f"{w['share_of_residual']:.0%}")
                          for w in located_base.windows], ["time window", "regime", "share of squared residual"]), "",
@@ -299,7 +306,8 @@ def write(d: Diagnosis, out_dir, drake: bool = True) -> dict:
         "signal": d.prep.signal,
         "noise": d.prep.noise,
         "windows": [dict(index=w.index + 1, t_release_s=w.t0, t_end_s=float(w.t[-1]), samples=w.n,
-                         end_reason=w.end_reason) for w in d.prep.windows],
+                         end_reason=w.end_reason, start=w.start, t_let_go_s=w.release.t_release_s)
+                    for w in d.prep.windows],
         "baseline_values": d.baseline.values,
         "final_values": d.final.values,
         "ci95": {k: list(v) for k, v in d.ci95.items()},
