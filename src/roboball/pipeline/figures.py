@@ -2,8 +2,6 @@
 in the file name.  Every figure is written as PNG and PDF (atomically)."""
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 import matplotlib
@@ -13,7 +11,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from ..atomic import write_csv_atomic, write_text_atomic  # noqa: E402
+from ..atomic import savefig_atomic, write_csv_atomic, write_text_atomic  # noqa: E402
 
 STAGES = ("fig10", "fig11", "fig13_14", "table2")
 CONTACT_COLOURS = {"point": "#7f7f7f", "injected": "#1f77b4", "hydroelastic": "#d62728", "diagnosed": "#2ca02c"}
@@ -28,16 +26,10 @@ def save(fig, path: str | Path) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     targets = [path] + ([path.with_suffix(".pdf")] if path.suffix == ".png" else [])
     for target in targets:
+        # Through the shared atomic writer: its scratch file ends in .tmp, so a killed run
+        # never leaves a hidden file that looks like a figure.
         fmt = target.suffix[1:]
-        fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=target.suffix)
-        os.close(fd)
-        try:
-            fig.savefig(tmp, format=fmt, metadata=_META.get(fmt))
-            os.replace(tmp, target)
-        except BaseException:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
-            raise
+        savefig_atomic(fig, target, format=fmt, metadata=_META.get(fmt))
     plt.close(fig)
 
 
