@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-REAL = Path("/work/shared/data/roboball_real/steering_static_stand_response.csv")
+REAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "roboball_real" / "steering_static_stand_response.csv"   # ../shared beside the checkout
 
 
 def make(folder: Path) -> Path:
