@@ -134,3 +134,17 @@ def test_ramp_locked_joints_matches_rolling_ode(robot):
     mask = df.time_s.values > 0.2
     rel = np.abs(w_sim[mask] - w_ode[mask]) / np.abs(w_ode[mask])
     assert rel.max() < 0.02, rel.max()
+
+
+def test_a_steer_release_past_the_joint_stop_is_refused():
+    """Drake's limit stop would throw the pendulum across its range in a few ms (Fig. 7 once
+    showed it): a release outside [-1.57, 1.0] rad is a clear error, not a simulation."""
+    from roboball.errors import SimulationError
+    from roboball.sim.plant import SimSpec
+    from roboball.sim.scenarios import simulate
+
+    spec = SimSpec(kind="steer_stand", friction={"steer": "viscous", "drive": "none"}, friction_params={"steer": {"c": 0.3}})
+    with pytest.raises(SimulationError, match=r"release angle 1.158 rad is outside the steer joint's limits \[-1.57, 1\]"):
+        simulate(spec, 1.158, 0.1)
+    df = simulate(spec, 0.99, 0.1)                     # just inside: an ordinary swing
+    assert np.all(np.diff(df.steer_angle_rad.to_numpy()) <= 1e-9) and df.steer_angle_rad.iloc[-1] > 0.8

@@ -158,3 +158,25 @@ def test_bad_segments_are_one_line_errors():
         F.segments_from_arrays([(t, np.sin(t)[:-1], 1.0)])
     with pytest.raises(RoboballError, match="stand recording"):
         F.fit_segments("shell_rock", "viscous", [(t, np.sin(t), 1.0)], "x.h5")
+
+
+def test_release_angles_stay_inside_the_joint_limits():
+    """The real steer-stand log's third release is held at 0.92 rad, 0.08 rad below the steer
+    joint's stop (1.0 rad, configs/robot.yaml).  The reduced model has no stop; Drake has, so a
+    fitted release angle past it (the pipeline once fitted 1.158 rad) threw the Drake pendulum
+    across its range in 40 ms in Fig. 7.  The release-angle support is clipped to the limits."""
+    segs = F.segments_from_arrays(synthetic_stand("viscous", {"c": 0.3}, seed=3, angles=(0.92, -1.45, 0.5), duration=1.5))
+    problem = F.FrictionProblem("steer_stand", "viscous", segs, F.law_priors("steer", "viscous"), robot=ROBOT)
+    steer = ROBOT.joints["steer"]
+    assert problem.q0_high[0] == steer["upper_rad"] and problem.q0_low[1] == steer["lower_rad"]
+    assert problem.q0_high[2] == pytest.approx(segs[2].y_release + F.RELEASE_HALF_WIDTH_RAD)
+    lo, hi = problem.lsq_bounds()
+    assert hi[-3] == steer["upper_rad"] and lo[-2] == steer["lower_rad"]
+    c_u, noise_u = float(problem.priors[0].u_of(0.3)), float(problem.noise_prior.u_of(1e-3))
+    u = np.array([[c_u, noise_u, 0.99, -1.45, 0.5], [c_u, noise_u, 1.01, -1.45, 0.5]])
+    assert np.isfinite(problem.log_prior(u[:1]))[0] and problem.log_prior(u[1:])[0] == -np.inf
+    # a release recorded past the stop cannot be fitted: a one-line error naming it
+    t = np.linspace(0, 3, 300)
+    with pytest.raises(RoboballError, match=r"release 1 starts at 1.600 rad, outside the steer joint's limits"):
+        F.FrictionProblem("steer_stand", "viscous", F.segments_from_arrays([(t, np.cos(t), {"t_release_s": 0.0, "y_release": 1.6})]),
+                          F.law_priors("steer", "viscous"), robot=ROBOT)

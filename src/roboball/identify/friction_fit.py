@@ -337,6 +337,18 @@ class FrictionProblem:
         self.S = len(self.segments)
         self.q0_data = np.array([s.y_release for s in self.segments])
         self.half_width = float(release_half_width)
+        # A release angle lies within the data's angle +- half_width AND inside the joint's limits
+        # (configs/robot.yaml): the reduced model has no limit stops, Drake has, so an angle past a
+        # limit would fit here and throw the pendulum against the stop in Drake.
+        joint = JOINT_OF_KIND[kind]
+        jl = self.robot.joints.get(joint, {})
+        lower, upper = float(jl.get("lower_rad", -np.inf)), float(jl.get("upper_rad", np.inf))
+        self.q0_low = np.maximum(self.q0_data - self.half_width, lower)
+        self.q0_high = np.minimum(self.q0_data + self.half_width, upper)
+        for i, (lo, hi, q) in enumerate(zip(self.q0_low, self.q0_high, self.q0_data)):
+            if not lo < hi:
+                raise RoboballError(f"friction fit: release {i + 1} starts at {q:.3f} rad, outside the {joint} "
+                                    f"joint's limits [{lower:g}, {upper:g}] rad")
         self.angle_names = [f"release_angle_{i + 1}" for i in range(self.S)]
         self.n_law = len(self.law_names)
         self.fix_angles(None)
@@ -366,8 +378,8 @@ class FrictionProblem:
         return out
 
     def lsq_bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        lo = [p.u_low for p in self.priors] + list(self.q0_data - self.half_width)
-        hi = [p.u_high for p in self.priors] + list(self.q0_data + self.half_width)
+        lo = [p.u_low for p in self.priors] + list(self.q0_low)
+        hi = [p.u_high for p in self.priors] + list(self.q0_high)
         return np.array(lo), np.array(hi)
 
     def start_point(self) -> np.ndarray:
@@ -376,7 +388,7 @@ class FrictionProblem:
         for p in self.priors:
             v = p.start or p.median or math.sqrt(max(p.low, 1e-12) * (p.high if math.isfinite(p.high) else 1.0))
             u.append(float(p.u_of(max(v, p.shift + 1e-9))))
-        return np.concatenate([u, self.q0_data])
+        return np.concatenate([u, np.clip(self.q0_data, self.q0_low, self.q0_high)])
 
     # ---- simulation -------------------------------------------------------------------------
     def predict(self, x: np.ndarray, dt: float | None = None) -> np.ndarray:
@@ -408,8 +420,9 @@ class FrictionProblem:
             lp = lp + p.logpdf_u(U[:, i])
         lp = lp + self.noise_prior.logpdf_u(U[:, self.n_law])
         if self.q0_fixed is None:
-            dq = np.abs(U[:, self.n_law + 1:] - self.q0_data[None, :])
-            lp = lp + np.where(np.all(dq < self.half_width, axis=1), 0.0, -np.inf)
+            q0 = U[:, self.n_law + 1:]
+            inside = np.all((q0 > self.q0_low[None, :]) & (q0 < self.q0_high[None, :]), axis=1)
+            lp = lp + np.where(inside, 0.0, -np.inf)
         return lp
 
     def log_likelihood(self, U: np.ndarray, residuals: np.ndarray | None = None) -> np.ndarray:
@@ -437,6 +450,7 @@ class FrictionProblem:
                              "priors": [p.describe() for p in self.priors],
                              "noise": self.noise_prior.describe(), "fixed": self.fixed,
                              "half_width": self.half_width,
+                             "q0_bounds": [[float(a), float(b)] for a, b in zip(self.q0_low, self.q0_high)],
                              "fixed_angles": None if self.q0_fixed is None else [float(q) for q in self.q0_fixed]},
                             sort_keys=True).encode())
         for s in self.segments:

@@ -46,7 +46,13 @@ def set_release(built: Built, context, release: float, steer0: float = 0.0) -> N
     pctx = plant.GetMyMutableContextFromRoot(context)
     kind = built.spec.kind
     if kind == "steer_stand":
-        plant.GetJointByName("steer").set_angle(pctx, release)
+        joint = plant.GetJointByName("steer")
+        lo, hi = float(joint.position_lower_limits()[0]), float(joint.position_upper_limits()[0])
+        if not lo <= release <= hi:
+            # Drake's limit stop would throw the pendulum across its range in a few ms.
+            raise SimulationError(f"steer_stand: release angle {release:.4g} rad is outside the steer joint's "
+                                  f"limits [{lo:g}, {hi:g}] rad (configs/robot.yaml)")
+        joint.set_angle(pctx, release)
     elif kind == "drive_stand":
         plant.GetJointByName("drive").set_angle(pctx, release)
     else:
