@@ -11,8 +11,7 @@ import sys
 
 from .cli import OneLineArgumentParser, register_command
 
-STAGE_MODULES = ("roboball.pipeline.ident", "roboball.pipeline.simulation", "roboball.pipeline.figures", "roboball.pipeline.friction_figs",
-                 "roboball.pipeline.report", "roboball.pipeline.friction", "roboball.pipeline.deflating")
+from .pipeline.codedeps import STAGE_MODULES  # noqa: E402  (one list: the CLI and the rules' fingerprints)
 
 
 def _stages(wanted: str | None = None) -> dict:

@@ -20,6 +20,7 @@ rule figS1_deflating_ramp:
         pdf=f"{PF}/figS1_deflating_ramp.pdf",
         csv="results/deflating/figS1_traces.csv",
     params:
+        code=CODE["deflating-ramp"],
         schedule=_schedule_args(),
         duration=DEFLATE.get("duration_s", 3.0),
         contacts=" ".join(DEFLATE.get("contact_models", ["injected", "hydroelastic"])),

@@ -6,6 +6,13 @@ import sys
 
 # The roboball of the environment running Snakemake (the project's .venv).
 ROBOBALL = os.path.join(os.path.dirname(sys.executable), "roboball") + " stage"
+
+# Each rule's params carry CODE[stage]: a hash of the package source files the stage runs and,
+# when it reads them, of the robot facts (roboball.pipeline.codedeps).  Editing a friction law
+# reruns the fits and simulations that use it; editing configs/robot.yaml reruns what derives
+# from it; a figure module's edit reruns its figures only.
+from roboball.pipeline.codedeps import stage_fingerprints
+CODE = stage_fingerprints(os.environ["ROBOBALL_CONFIG_DIR"])
 RAW = config["raw_data"]
 
 

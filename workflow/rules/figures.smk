@@ -8,12 +8,13 @@ FIGURES = [
 
 
 rule table2:
-    input: "configs/robot.yaml"
+    input: robot="configs/robot.yaml"
     output:
         csv=f"{PF}/table2_robot.csv",
         md=f"{PF}/table2_robot.md",
+    params: code=CODE["table2"]
     log: "results/logs/table2.log"
-    shell: "{ROBOBALL} table2 --robot-yaml {input} --out-csv {output.csv} --out-md {output.md} > {log} 2>&1"
+    shell: "{ROBOBALL} table2 --robot-yaml {input.robot} --out-csv {output.csv} --out-md {output.md} > {log} 2>&1"
 
 
 rule fig10:
@@ -24,6 +25,7 @@ rule fig10:
     output:
         png=report(f"{PF}/fig10_shell_dynamics.png", category="3 Shell", caption="../report/fig10.rst"),
         pdf=f"{PF}/fig10_shell_dynamics.pdf",
+    params: code=CODE["fig10"]
     log: "results/logs/fig10.log"
     shell:
         "{ROBOBALL} fig10 --points {input.points} --regression {input.regression} --sims {input.sims} "
@@ -40,6 +42,7 @@ rule fig11:
         table=f"{PF}/table_sweep.csv",
         md=f"{PF}/table_sweep.md",
     params:
+        code=CODE["fig11"],
         m=config["shell"]["carried_forward"]["modulus_scale"],
         d=config["shell"]["carried_forward"]["dissipation_scale"],
     log: "results/logs/fig11.log"
@@ -56,6 +59,7 @@ rule fig13_14:
         pdfs=[f"{PF}/fig13_ramp_pme.pdf", f"{PF}/fig14_ramp_pme_mean.pdf"],
         csv=f"{PF}/table_pme.csv",
         md=f"{PF}/table_pme.md",
+    params: code=CODE["fig13-14"]
     log: "results/logs/fig13_14.log"
     shell:
         "{ROBOBALL} fig13-14 --summary {input} --out13 {output.fig13} --out14 {output.fig14} "
@@ -70,6 +74,7 @@ rule replay:
     input: regression="results/identify/shell_regression.csv"
     output: report("results/replays/{scenario}.html", category="5 Replays", caption="../report/replay.rst")
     params:
+        code=CODE["replay"],
         contact=lambda w: REPLAYS[w.scenario][0],
         release=lambda w: REPLAYS[w.scenario][1],
         d=config["shell"]["carried_forward"]["dissipation_scale"],

@@ -23,6 +23,7 @@ rule friction_fit:
         json="results/friction/{dataset}/{joint}_{law}.json",
         samples="results/friction/{dataset}/{joint}_{law}.samples.csv",
     params:
+        code=CODE["friction-fit"],
         # Only this model's prior block: editing another model's prior does not rerun this fit.
         prior=lambda w: json.dumps(PRIORS[w.joint][w.law], sort_keys=True),
         chain="results/friction/{dataset}/{joint}_{law}.h5",
@@ -44,6 +45,7 @@ rule friction_fit:
 rule friction_comparison:
     input: lambda w: [fit_json(d, j, l) for d, j, l in FITS if d == w.dataset and j == w.joint]
     output: "results/friction/{dataset}/{joint}_comparison.csv"
+    params: code=CODE["friction-comparison"]
     log: "results/logs/friction/{dataset}/{joint}_comparison.log"
     shell: "{ROBOBALL} friction-comparison --fits {input} --out-csv {output} > {log} 2>&1"
 
@@ -55,6 +57,7 @@ rule table1:
     output:
         csv=f"{PF}/table1_friction.csv",
         md=f"{PF}/table1_friction.md",
+    params: code=CODE["table1"]
     log: "results/logs/table1.log"
     shell:
         "{ROBOBALL} table1 --fits {input.fits} --comparison-csv {input.comparison} "
@@ -66,6 +69,7 @@ rule fig5:
     output:
         png=report(f"{PF}/fig5_friction_laws.png", category="2 Friction", caption="../report/fig5.rst"),
         pdf=f"{PF}/fig5_friction_laws.pdf",
+    params: code=CODE["fig5"]
     log: "results/logs/fig5.log"
     shell: "{ROBOBALL} fig5 --fits {input} --out-png {output.png} > {log} 2>&1"
 
@@ -79,6 +83,7 @@ rule fig_stand:
         png=report(f"{PF}/fig{{num}}_{{dataset}}_{{joint}}_fits.png", category="2 Friction", caption="../report/fig78.rst"),
         pdf=f"{PF}/fig{{num}}_{{dataset}}_{{joint}}_fits.pdf",
     params:
+        code=CODE["fig-stand-fits"],
         title=lambda w: f"Fig. {w.num}: {w.joint} stand ({w.dataset}): data and fitted friction simulated in Drake",
     wildcard_constraints: num="7|8", dataset="testbed|real", joint="steer|drive"
     log: "results/logs/fig{num}_{dataset}_{joint}.log"
@@ -92,6 +97,7 @@ rule corner:
     output:
         png=report(f"{PF}/corner/corner_{{dataset}}_{{joint}}_{{law}}.png", category="2 Friction", caption="../report/corner.rst"),
         pdf=f"{PF}/corner/corner_{{dataset}}_{{joint}}_{{law}}.pdf",
+    params: code=CODE["corner-plot"]
     wildcard_constraints: dataset="testbed|real", joint="steer|drive", law="viscous|coulomb_viscous|majd"
     log: "results/logs/corner/{dataset}_{joint}_{law}.log"
     shell: "{ROBOBALL} corner-plot --fit {input} --out-png {output.png} > {log} 2>&1"
@@ -118,6 +124,7 @@ rule uncertainty_report:
                  f"{PF}/fig10_shell_dynamics.png", f"{PF}/fig11_hydro_sensitivity.png", f"{PF}/fig13_ramp_pme.png",
                  f"{PF}/fig14_ramp_pme_mean.png"] + ([f"{PF}/fig7_real_steer_fits.png"] if REAL_ON else []),
     output: report(f"{PF}/uncertainty_report.html", category="0 Report", caption="../report/uncertainty.rst")
+    params: code=CODE["uncertainty-report"]
     log: "results/logs/uncertainty_report.log"
     shell:
         "{ROBOBALL} uncertainty-report --fits {input.fits} --comparisons {input.comparisons} "

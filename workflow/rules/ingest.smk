@@ -9,6 +9,7 @@ rule ingest:
         releases="results/ingest/{stem}.releases.json",
         qc=report("results/qc/{stem}.png", category="1 Ingest", caption="../report/qc.rst"),
     params:
+        code=CODE["ingest"],
         kind=lambda w: REC[w.stem]["kind"],
         pressure=lambda w: REC[w.stem]["pressure_kpa"],
     log: "results/logs/ingest/{stem}.log"
@@ -23,6 +24,7 @@ rule decay:
         csv="results/ingest/{stem}.csv",
         releases="results/ingest/{stem}.releases.json",
     output: "results/decay/{stem}.csv"
+    params: code=CODE["decay"]
     log: "results/logs/decay/{stem}.log"
     benchmark: "results/benchmarks/decay/{stem}.tsv"
     shell:

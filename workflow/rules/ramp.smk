@@ -12,6 +12,7 @@ rule ramp_sim:
         pme="results/ramp/{contact}/{stem}.csv",
         trace="results/ramp/{contact}/{stem}.trace.csv",
     params:
+        code=CODE["ramp-sim"],
         scales=lambda w: (config["shell"]["carried_forward"]["modulus_scale"],
                           config["shell"]["carried_forward"]["dissipation_scale"]) if w.contact == "hydroelastic" else (1.0, 1.0),
         dt=config["ramp"]["dt_s"],
@@ -30,5 +31,6 @@ rule ramp_sim:
 rule ramp_summary:
     input: expand("results/ramp/{contact}/{stem}.csv", contact=RAMP_CONTACTS, stem=RAMP)
     output: "results/ramp/summary.csv"
+    params: code=CODE["summarise"]
     log: "results/logs/ramp_summary.log"
     shell: "{ROBOBALL} summarise --inputs {input} --out-csv {output} > {log} 2>&1"

@@ -6,6 +6,7 @@ rule shell_regression:
     output:
         points="results/identify/shell_points.csv",
         table="results/identify/shell_regression.csv",
+    params: code=CODE["shell-regression"]
     log: "results/logs/shell_regression.log"
     benchmark: "results/benchmarks/shell_regression.tsv"
     shell:
@@ -19,6 +20,7 @@ rule shell_sim:
         regression="results/identify/shell_regression.csv",
     output: "results/shell_sim/{contact}/{stem}.csv"
     params:
+        code=CODE["shell-sim"],
         duration=config["shell"]["sim_duration_s"],
         dt=config["shell"]["dt_s"],
     wildcard_constraints: contact="point|injected|hydroelastic"
@@ -35,6 +37,7 @@ rule sweep_sim:
         regression="results/identify/shell_regression.csv",
     output: "results/sweep/{case}/{stem}.csv"
     params:
+        code=CODE["shell-sim"],
         scales=lambda w: SWEEP[w.case],
         duration=config["shell"]["sim_duration_s"],
         dt=config["shell"]["dt_s"],
@@ -50,6 +53,7 @@ rule shell_summary:
     input:
         sims=expand("results/shell_sim/{contact}/{stem}.csv", contact=CONTACTS, stem=SHELL),
     output: "results/shell_sim/summary.csv"
+    params: code=CODE["summarise"]
     log: "results/logs/shell_summary.log"
     shell: "{ROBOBALL} summarise --inputs {input.sims} --out-csv {output} > {log} 2>&1"
 
@@ -59,5 +63,6 @@ rule sweep_summary:
         expand("results/shell_sim/hydroelastic/{stem}.csv", stem=SHELL),
         expand("results/sweep/{case}/{stem}.csv", case=list(SWEEP), stem=SHELL),
     output: "results/sweep/summary.csv"
+    params: code=CODE["summarise"]
     log: "results/logs/sweep_summary.log"
     shell: "{ROBOBALL} summarise --inputs {input} --out-csv {output} > {log} 2>&1"

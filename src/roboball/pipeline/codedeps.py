@@ -1,0 +1,133 @@
+"""What a pipeline stage's result depends on besides its data: the package's source files it
+runs (its module and every roboball module that module imports, directly or inside a function,
+transitively) and, when those read the robot facts, `configs/robot.yaml`.
+
+The Snakemake rules put `stage_fingerprint(stage)` in their params, so an edit of a friction law
+reruns the fits and simulations that use it, an edit of a figure module reruns only its figures,
+and an edit of the robot facts reruns everything derived from them.  A `touch` that changes no
+byte reruns nothing.  Read with the standard library only (ast, hashlib): building the DAG stays
+fast and imports neither Drake nor matplotlib.
+"""
+from __future__ import annotations
+
+import ast
+import hashlib
+from functools import lru_cache
+from pathlib import Path
+
+PACKAGE_ROOT = Path(__file__).resolve().parents[1]        # .../src/roboball
+PACKAGE = "roboball"
+# The stage modules, in the order `roboball stage` searches them (roboball.pipeline_cli).
+STAGE_MODULES = ("roboball.pipeline.ident", "roboball.pipeline.simulation", "roboball.pipeline.figures",
+                 "roboball.pipeline.friction_figs", "roboball.pipeline.report", "roboball.pipeline.friction",
+                 "roboball.pipeline.deflating")
+ROBOT_FACTS_READER = "roboball.config"
+
+
+def module_file(module: str, root: Path = PACKAGE_ROOT) -> Path | None:
+    """The file of a roboball module (a package's __init__.py), or None if there is none."""
+    parts = module.split(".")
+    if parts[0] != PACKAGE:
+        return None
+    base = root.joinpath(*parts[1:])
+    for f in (base.with_suffix(".py"), base / "__init__.py"):
+        if f.is_file():
+            return f
+    return None
+
+
+def _is_package(module: str, root: Path) -> bool:
+    f = module_file(module, root)
+    return f is not None and f.name == "__init__.py"
+
+
+@lru_cache(maxsize=None)
+def _imports(module: str, root: Path) -> tuple[str, ...]:
+    """roboball modules that `module` imports anywhere in its file (top level or in functions),
+    with the packages on the way (importing a.b.c runs a/__init__ and a/b/__init__)."""
+    f = module_file(module, root)
+    if f is None:
+        return ()
+    tree = ast.parse(f.read_text(encoding="utf-8"), filename=str(f))
+    package = module if f.name == "__init__.py" else module.rpartition(".")[0]
+    found: set[str] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            found.update(a.name for a in node.names if a.name.split(".")[0] == PACKAGE)
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")
+                base = base[:len(base) - (node.level - 1)]
+                target = ".".join(base + ([node.module] if node.module else []))
+            else:
+                target = node.module or ""
+            if target.split(".")[0] != PACKAGE:
+                continue
+            found.add(target)
+            for a in node.names:                      # `from .. import reduced`: a submodule
+                if module_file(f"{target}.{a.name}", root) is not None:
+                    found.add(f"{target}.{a.name}")
+    with_parents = set()
+    for m in found:
+        parts = m.split(".")
+        with_parents.update(".".join(parts[:k]) for k in range(1, len(parts) + 1))
+    return tuple(sorted(m for m in with_parents if module_file(m, root) is not None))
+
+
+def closure(module: str, root: Path = PACKAGE_ROOT) -> list[str]:
+    """`module` and every roboball module it imports, transitively, sorted."""
+    parts = module.split(".")
+    seen, todo = set(), [".".join(parts[:k]) for k in range(1, len(parts) + 1)]
+    while todo:
+        m = todo.pop()
+        if m in seen:
+            continue
+        seen.add(m)
+        todo.extend(_imports(m, root))
+    return sorted(m for m in seen if module_file(m, root) is not None)
+
+
+@lru_cache(maxsize=None)
+def stage_module(stage: str, root: Path = PACKAGE_ROOT) -> str:
+    """The module that defines `stage` (the name of `roboball stage NAME`, - or _)."""
+    want = stage.replace("-", "_")
+    for mod in STAGE_MODULES:
+        f = module_file(mod, root)
+        if f is None:
+            continue
+        for node in ast.parse(f.read_text(encoding="utf-8")).body:
+            if (isinstance(node, ast.Assign) and any(isinstance(t, ast.Name) and t.id == "STAGES" for t in node.targets)
+                    and want in ast.literal_eval(node.value)):
+                return mod
+    raise KeyError(f"no pipeline stage named '{stage}' (stage modules: {', '.join(STAGE_MODULES)})")
+
+
+def stage_sources(stage: str, root: Path = PACKAGE_ROOT) -> list[Path]:
+    """The source files a stage runs."""
+    return [module_file(m, root) for m in closure(stage_module(stage, root), root)]
+
+
+def stage_fingerprint(stage: str, config_dir: str | Path = "configs", root: Path = PACKAGE_ROOT) -> str:
+    """A short hash of the stage's source files (and of robot.yaml when it reads the robot facts)."""
+    h = hashlib.sha256()
+    mods = closure(stage_module(stage, root), root)
+    files = [(m, module_file(m, root)) for m in mods]
+    if ROBOT_FACTS_READER in mods:
+        files.append(("robot.yaml", Path(config_dir) / "robot.yaml"))
+    for name, f in files:
+        h.update(name.encode() + b"\0" + f.read_bytes() + b"\0")
+    return h.hexdigest()[:16]
+
+
+def stage_fingerprints(config_dir: str | Path = "configs", root: Path = PACKAGE_ROOT) -> dict[str, str]:
+    """Stage name (with -) -> fingerprint, for every stage of every stage module."""
+    out = {}
+    for mod in STAGE_MODULES:
+        f = module_file(mod, root)
+        if f is None:
+            continue
+        for node in ast.parse(f.read_text(encoding="utf-8")).body:
+            if isinstance(node, ast.Assign) and any(isinstance(t, ast.Name) and t.id == "STAGES" for t in node.targets):
+                for name in ast.literal_eval(node.value):
+                    out.setdefault(name.replace("_", "-"), stage_fingerprint(name, config_dir, root))
+    return out
