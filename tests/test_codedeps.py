@@ -51,14 +51,13 @@ def test_fingerprints_change_with_what_the_stage_runs_and_nothing_else(tmp_path)
     cfg = tmp_path / "configs"
     cfg.mkdir()
     shutil.copy2(REPO / "configs" / "robot.yaml", cfg / "robot.yaml")
-    C._imports.cache_clear()
-    C.stage_module.cache_clear()
+    C.clear_caches()
     before = C.stage_fingerprints(cfg, root)
     assert before == C.stage_fingerprints(cfg, root)                   # deterministic
 
     law = root / "physics" / "friction.py"
     law.write_text(law.read_text() + "\n# an edit of the friction laws\n")
-    C._imports.cache_clear()
+    C.clear_caches()
     after = C.stage_fingerprints(cfg, root)
     changed = {s for s in before if before[s] != after[s]}
     assert {"friction-fit", "ramp-sim", "shell-sim", "fig-stand-fits", "fig5"} <= changed, changed
@@ -66,7 +65,7 @@ def test_fingerprints_change_with_what_the_stage_runs_and_nothing_else(tmp_path)
 
     fig = root / "pipeline" / "report.py"
     fig.write_text(fig.read_text() + "\n# an edit of the report\n")
-    C._imports.cache_clear()
+    C.clear_caches()
     again = C.stage_fingerprints(cfg, root)
     assert {s for s in after if after[s] != again[s]} == {"uncertainty-report"}
 
@@ -74,5 +73,4 @@ def test_fingerprints_change_with_what_the_stage_runs_and_nothing_else(tmp_path)
     facts = C.stage_fingerprints(cfg, root)
     refit = {s for s in again if again[s] != facts[s]}
     assert {"ramp-sim", "friction-fit", "table2", "fig10"} <= refit and "uncertainty-report" not in refit, refit
-    C._imports.cache_clear()
-    C.stage_module.cache_clear()
+    C.clear_caches()

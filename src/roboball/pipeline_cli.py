@@ -10,8 +10,7 @@ import inspect
 import sys
 
 from .cli import OneLineArgumentParser, register_command
-
-from .pipeline.codedeps import STAGE_MODULES  # noqa: E402  (one list: the CLI and the rules' fingerprints)
+from .pipeline.codedeps import STAGE_MODULES   # one list: the CLI's search order and the rules' fingerprints
 
 
 def _stages(wanted: str | None = None) -> dict:

@@ -36,11 +36,6 @@ def module_file(module: str, root: Path = PACKAGE_ROOT) -> Path | None:
     return None
 
 
-def _is_package(module: str, root: Path) -> bool:
-    f = module_file(module, root)
-    return f is not None and f.name == "__init__.py"
-
-
 @lru_cache(maxsize=None)
 def _imports(module: str, root: Path) -> tuple[str, ...]:
     """roboball modules that `module` imports anywhere in its file (top level or in functions),
@@ -88,40 +83,9 @@ def closure(module: str, root: Path = PACKAGE_ROOT) -> list[str]:
 
 
 @lru_cache(maxsize=None)
-def stage_module(stage: str, root: Path = PACKAGE_ROOT) -> str:
-    """The module that defines `stage` (the name of `roboball stage NAME`, - or _)."""
-    want = stage.replace("-", "_")
-    for mod in STAGE_MODULES:
-        f = module_file(mod, root)
-        if f is None:
-            continue
-        for node in ast.parse(f.read_text(encoding="utf-8")).body:
-            if (isinstance(node, ast.Assign) and any(isinstance(t, ast.Name) and t.id == "STAGES" for t in node.targets)
-                    and want in ast.literal_eval(node.value)):
-                return mod
-    raise KeyError(f"no pipeline stage named '{stage}' (stage modules: {', '.join(STAGE_MODULES)})")
-
-
-def stage_sources(stage: str, root: Path = PACKAGE_ROOT) -> list[Path]:
-    """The source files a stage runs."""
-    return [module_file(m, root) for m in closure(stage_module(stage, root), root)]
-
-
-def stage_fingerprint(stage: str, config_dir: str | Path = "configs", root: Path = PACKAGE_ROOT) -> str:
-    """A short hash of the stage's source files (and of robot.yaml when it reads the robot facts)."""
-    h = hashlib.sha256()
-    mods = closure(stage_module(stage, root), root)
-    files = [(m, module_file(m, root)) for m in mods]
-    if ROBOT_FACTS_READER in mods:
-        files.append(("robot.yaml", Path(config_dir) / "robot.yaml"))
-    for name, f in files:
-        h.update(name.encode() + b"\0" + f.read_bytes() + b"\0")
-    return h.hexdigest()[:16]
-
-
-def stage_fingerprints(config_dir: str | Path = "configs", root: Path = PACKAGE_ROOT) -> dict[str, str]:
-    """Stage name (with -) -> fingerprint, for every stage of every stage module."""
-    out = {}
+def _stage_table(root: Path = PACKAGE_ROOT) -> dict[str, str]:
+    """Stage name (with -) -> the stage module that declares it in its STAGES tuple."""
+    table: dict[str, str] = {}
     for mod in STAGE_MODULES:
         f = module_file(mod, root)
         if f is None:
@@ -129,5 +93,45 @@ def stage_fingerprints(config_dir: str | Path = "configs", root: Path = PACKAGE_
         for node in ast.parse(f.read_text(encoding="utf-8")).body:
             if isinstance(node, ast.Assign) and any(isinstance(t, ast.Name) and t.id == "STAGES" for t in node.targets):
                 for name in ast.literal_eval(node.value):
-                    out.setdefault(name.replace("_", "-"), stage_fingerprint(name, config_dir, root))
-    return out
+                    table.setdefault(name.replace("_", "-"), mod)
+    return table
+
+
+def clear_caches() -> None:
+    """Forget parsed imports and stage tables (after editing the sources in the same process)."""
+    _imports.cache_clear()
+    _stage_table.cache_clear()
+
+
+def stage_module(stage: str, root: Path = PACKAGE_ROOT) -> str:
+    """The module that defines `stage` (the name of `roboball stage NAME`, - or _)."""
+    try:
+        return _stage_table(root)[stage.replace("_", "-")]
+    except KeyError:
+        raise KeyError(f"no pipeline stage named '{stage}' (stage modules: {', '.join(STAGE_MODULES)})") from None
+
+
+def _fingerprint(modules: list[str], sources: dict[str, bytes], config_dir: Path, root: Path) -> str:
+    """Hash of the modules' sources (each file read once into `sources`), plus robot.yaml when
+    the modules include the robot facts' reader."""
+    h = hashlib.sha256()
+    files = [(m, m) for m in modules] + ([("robot.yaml", None)] if ROBOT_FACTS_READER in modules else [])
+    for name, m in files:
+        if name not in sources:
+            sources[name] = (module_file(m, root) if m else config_dir / "robot.yaml").read_bytes()
+        h.update(name.encode() + b"\0" + sources[name] + b"\0")
+    return h.hexdigest()[:16]
+
+
+def stage_fingerprint(stage: str, config_dir: str | Path = "configs", root: Path = PACKAGE_ROOT) -> str:
+    """A short hash of the stage's source files (and of robot.yaml when it reads the robot facts)."""
+    return _fingerprint(closure(stage_module(stage, root), root), {}, Path(config_dir), root)
+
+
+def stage_fingerprints(config_dir: str | Path = "configs", root: Path = PACKAGE_ROOT) -> dict[str, str]:
+    """Stage name (with -) -> fingerprint, for every stage of every stage module (each source
+    file read once; computed while Snakemake builds the DAG)."""
+    sources: dict[str, bytes] = {}
+    closures = {mod: closure(mod, root) for mod in set(_stage_table(root).values())}
+    return {stage: _fingerprint(closures[mod], sources, Path(config_dir), root)
+            for stage, mod in _stage_table(root).items()}

@@ -23,7 +23,6 @@ _META = {"png": {"Software": None}, "pdf": {"CreationDate": None, "Producer": No
 def save(fig, path: str | Path) -> None:
     """Save `fig` to path (and its PDF twin when path ends in .png), atomically, no timestamps."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     targets = [path] + ([path.with_suffix(".pdf")] if path.suffix == ".png" else [])
     for target in targets:
         # Through the shared atomic writer: its scratch file ends in .tmp, so a killed run
