@@ -89,6 +89,7 @@ from .config import RobotFacts, load_robot
 from .errors import RoboballError, SimulationError
 from .physics import friction
 from .physics import shell as shell_laws
+from . import reduced_kernel
 
 __all__ = [
     "KINDS",
@@ -261,7 +262,7 @@ class Trajectory:
     qd: np.ndarray
     work: np.ndarray | None
     dt: float
-    implicit_steps: int = 0
+    implicit_steps: int = 0      # steps with an implicit stiction step (compiled loop: most of any row)
 
 
 def _stiff_band(ffun, inv_m_max, dt, kappa, batch):
@@ -278,13 +279,20 @@ def _stiff_band(ffun, inv_m_max, dt, kappa, batch):
 
 def integrate(model: PlanarModel, law: str, params: Mapping, q0, qd0, duration: float,
               dt: float = DEFAULT_DT, extra_torque: Callable | None = None,
-              record_work: bool = False, stiff_kappa: float = STIFF_KAPPA) -> Trajectory:
+              record_work: bool = False, stiff_kappa: float = STIFF_KAPPA, compiled: bool = True,
+              row_durations=None) -> Trajectory:
     """Integrate a batch of B initial states (q0, qd0: (B,)) for `duration` seconds.
 
     `params` maps parameter names to scalars or (B,) arrays (friction law parameters and any
     entries `extra_torque` reads).  Fixed-step RK4 (Nystroem form) with the implicit stiction
     step described in the module docstring.  Non-finite states are left in the output (the
     caller decides; see :func:`simulate_stand`).
+
+    With ``compiled`` (default) a run with a friction law and no extra torque or work record
+    goes through the compiled loop of :mod:`roboball.reduced_kernel` (same algorithm, same
+    results to ~1e-12 rad); ``compiled=False`` forces this NumPy loop.  ``row_durations`` (B,)
+    lets the compiled loop stop a row early (it then holds its last state); the NumPy loop
+    integrates every row for `duration` (a caller reads each row only up to its own end).
     """
     if not (dt > 0 and math.isfinite(dt)):
         raise RoboballError(f"reduced model: time step must be positive, got {dt}")
@@ -322,6 +330,12 @@ def integrate(model: PlanarModel, law: str, params: Mapping, q0, qd0, duration: 
     if ffun is not None:
         m_min = model.inertia0_kg_m2 - 2.0 * RG
         band, slope0 = _stiff_band(ffun, 1.0 / m_min, dt, stiff_kappa, B)
+        if compiled and reduced_kernel.supports(law, etor, record_work):
+            # the same algorithm in machine code (roboball.reduced_kernel), rows in parallel
+            n_rows = None if row_durations is None else \
+                np.ceil(np.asarray(row_durations, dtype=float).ravel() / dt - 1e-9).astype(np.int64)
+            Qr, Vr, n_impl = reduced_kernel.integrate_rows(model, law, params, q, v, n, dt, band, slope0, n_rows)
+            return Trajectory(np.arange(n + 1) * dt, Qr.T, Vr.T, None, dt, n_impl)
         if np.any(band > 0):
             stiff_rows = band > 0
     n_impl = 0
@@ -524,7 +538,10 @@ def simulate_segments(kind: str, segments: Sequence[tuple], q0, law: str,
     params = _as_batch(params_batch, P)
     rows = {k: (np.tile(v, S) if np.ndim(v) > 0 else v) for k, v in params.items()}
     durations = [float(np.max(t)) - float(tr) for t, tr in segments]
-    traj = integrate(model, law, rows, q0.T.ravel(), np.zeros(P * S), max(max(durations), dt) + dt, dt, extra_torque)
+    # each segment's rows run for their own duration (plus a step for the interpolation)
+    row_d = np.repeat([max(d, dt) + dt for d in durations], P)
+    traj = integrate(model, law, rows, q0.T.ravel(), np.zeros(P * S), max(max(durations), dt) + dt, dt, extra_torque,
+                     row_durations=row_d)
     out = []
     for s, (t, tr) in enumerate(segments):
         y = sample(traj, np.asarray(t, dtype=float) - float(tr), slice(s * P, (s + 1) * P))

@@ -21,14 +21,17 @@ parameter (initialised from the data, fitted, and marginalised in the posterior)
    independent residuals) and the release angles (marginalised: the friction levels are
    correlated with the release amplitudes, so conditioning on fitted angles would give
    too-narrow intervals).  Walkers start from the least-squares
-   Laplace approximation.  All walkers of a proposal are simulated in one vectorised call
+   Laplace approximation; differential-evolution moves adapt, then an independence proposal
+   (multivariate t fitted to the samples so far, refitted once, then frozen) mixed with DE
+   moves samples (:func:`sample_posterior`).  All walkers of a proposal are simulated in one vectorised call
    (``vectorize=True``).  The chain is stored with ``emcee.backends.HDFBackend``; an
    interrupted run resumes from the stored chain (and its random state).
 4. Convergence is measured, not assumed: the chain runs in chunks until its post-burn-in
    length is at least ``autocorr_multiple`` (default 50) times the integrated
    autocorrelation time of every parameter (``get_autocorr_time(tol=0)``), or ``max_steps``
    is reached, in which case the result says ``converged: false``.  Burn-in = 5 tau (from
-   the second half of the chain), at most half of it.  Reported: acceptance fraction, tau and
+   the second half of the chain), at most half of it, counted after the adaptation phase
+   (tau is measured on the production phase only).  Reported: acceptance fraction, tau and
    effective sample size n_walkers x n_after_burn / tau per parameter.
 5. Model comparison: residual RMS, log-likelihood at the MAP sample and its maximum, BIC
    (k ln N - 2 ln L_max, k counting law parameters, sigma and release angles) and WAIC from
@@ -93,6 +96,9 @@ RELEASE_HALF_WIDTH_RAD = 0.25
 DT_CANDIDATES = (1e-2, 5e-3, 2.5e-3, 1.25e-3, 6.25e-4)
 DT_TOLERANCE = 0.2            # integration-induced parameter shift allowed, in posterior sd
 WEAK_IDENTIFIABILITY = 0.5
+# Adaptation: DE moves up to the first step count, then an independence proposal fitted to the
+# DE samples, refitted at the second count to its own (far less correlated) samples and frozen.
+ADAPT_SCHEDULE = (100, 200)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -580,6 +586,55 @@ def _default_moves(n_walkers: int, ndim: int):
     return [(emcee.moves.DEMove(), 0.8), (emcee.moves.DESnookerMove(), 0.2)]
 
 
+class IndependentT:
+    """Independence proposal for emcee's ``MHMove``: a multivariate Student t (``df``) with the
+    mean and ``scale``^2 x covariance of given samples, and the Metropolis-Hastings correction
+    log g(x) - log g(x') that makes a proposal independent of the current state exact.
+
+    Fitted once to the adaptation phase of the chain and then frozen, so the chain after it is
+    a fixed-kernel (valid) MCMC chain.  Heavier tails than a Gaussian (df = 6) keep the chain
+    from sticking where the posterior is wider than the fit; proposals outside the prior
+    support are rejected by the posterior itself."""
+
+    def __init__(self, mean: np.ndarray, cov: np.ndarray, df: float = 6.0, scale: float = 1.2):
+        self.mean = np.asarray(mean, dtype=float)
+        d = self.mean.size
+        cov = 0.5 * (cov + cov.T) * scale ** 2
+        w, V = np.linalg.eigh(cov)
+        w = np.clip(w, max(float(w.max()), 1e-300) * 1e-12, None)
+        self.L = V * np.sqrt(w)                 # cov = L L^T
+        self.Linv = (V / np.sqrt(w)).T          # whitening
+        self.df, self.d = float(df), d
+
+    @classmethod
+    def from_chain(cls, chain: np.ndarray, **kw) -> "IndependentT":
+        X = chain.reshape(-1, chain.shape[-1])
+        return cls(X.mean(axis=0), np.cov(X.T).reshape(X.shape[1], X.shape[1]), **kw)
+
+    def log_density(self, x: np.ndarray) -> np.ndarray:
+        z = (x - self.mean) @ self.Linv.T
+        return -0.5 * (self.df + self.d) * np.log1p(np.sum(z * z, axis=1) / self.df)
+
+    def __call__(self, coords: np.ndarray, random) -> tuple[np.ndarray, np.ndarray]:
+        n = coords.shape[0]
+        z = random.randn(n, self.d) @ self.L.T
+        w = random.chisquare(self.df, n) / self.df
+        q = self.mean + z / np.sqrt(w)[:, None]
+        return q, self.log_density(coords) - self.log_density(q)
+
+
+def _adapted_moves(chain: np.ndarray, stage: int, schedule: Sequence[int]):
+    """Moves of adaptation stage `stage` >= 1 (stage 0 is DE alone): the independence
+    proposal fitted to the previous stage's samples (for stage 1, the second half of the DE
+    stage, whose start is not yet in equilibrium), mixed with a few DE moves for robustness."""
+    import emcee
+
+    end = schedule[stage - 1]
+    begin = end // 2 if stage == 1 else schedule[stage - 2]
+    prop = IndependentT.from_chain(chain[begin:end])
+    return [(emcee.moves.MHMove(prop), 0.9), (emcee.moves.DEMove(), 0.1)]
+
+
 def _initial_walkers(problem: FrictionProblem, lsq: dict, n_walkers: int, rng: np.random.Generator) -> np.ndarray:
     """Walkers drawn from the least-squares Laplace approximation, inside the prior support."""
     x = lsq["x"]
@@ -645,8 +700,19 @@ def _meta_attrs(path: Path, meta: dict | None = None) -> dict | None:
 
 def sample_posterior(problem: FrictionProblem, lsq: dict, chain_path: str | os.PathLike, seed: int = 0,
                      n_walkers: int = 32, autocorr_multiple: float = 50.0, max_steps: int = 20000,
-                     chunk: int = 100, moves=None, min_steps: int = 100) -> dict:
+                     chunk: int = 50, moves=None, min_steps: int = 100,
+                     adapt_schedule: Sequence[int] = ADAPT_SCHEDULE) -> dict:
     """Run (or resume) the emcee chain in `chain_path` until converged or `max_steps`.
+
+    With ``moves=None`` the chain adapts, then samples with a frozen kernel.  Adaptation:
+    differential-evolution moves from the Laplace start up to ``adapt_schedule[0]`` steps, then
+    an independence proposal (:class:`IndependentT`) fitted to the DE samples, refitted at each
+    later count of the schedule to the samples since the previous one.  Production, from
+    ``adapt_schedule[-1]`` on: the last proposal, frozen, mixed with DE moves.  On the test
+    bed's Majd steer fit this cut the integrated autocorrelation time from about 37 steps (DE
+    alone) to about 14.  Burn-in and tau are measured on the production phase only (burn-in
+    >= ``adapt_schedule[-1]``), so the reported samples come from one fixed kernel.  Given
+    `moves`, one phase with those moves (burn-in from the whole chain).
 
     Returns ``chain`` (steps, walkers, ndim) in sampling coordinates, ``log_prob``,
     ``burn``, ``tau``, ``converged``, ``acceptance``, ``n_steps``, ``resumed_from``.
@@ -658,8 +724,14 @@ def sample_posterior(problem: FrictionProblem, lsq: dict, chain_path: str | os.P
     if problem.ndim * 2 > n_walkers:
         raise RoboballError(f"friction fit: {n_walkers} walkers for {problem.ndim} parameters; emcee needs at "
                             f"least {2 * problem.ndim}")
+    adaptive = moves is None
+    schedule = tuple(int(a) for a in adapt_schedule) if adaptive else ()
+    if adaptive and (not schedule or any(b <= a for a, b in zip(schedule, schedule[1:])) or schedule[0] < 2):
+        raise RoboballError(f"friction fit: adaptation schedule {schedule} must be increasing step counts >= 2")
+    adapt = schedule[-1] if adaptive else 0
     meta = {"fingerprint": problem.fingerprint(), "names": problem.names, "law": problem.law,
-            "kind": problem.kind, "n_walkers": int(n_walkers), "seed": int(seed), "dt": problem.dt}
+            "kind": problem.kind, "n_walkers": int(n_walkers), "seed": int(seed), "dt": problem.dt,
+            "sampler": f"adaptive-independence-t/{'-'.join(map(str, schedule))}" if adaptive else "given-moves"}
     backend = emcee.backends.HDFBackend(str(chain_path), name="mcmc")  # checkpoint: resumable emcee chain, checked by fingerprint on reuse
     resumed_from = 0
     stored = _meta_attrs(chain_path) if chain_path.exists() else None
@@ -674,29 +746,55 @@ def sample_posterior(problem: FrictionProblem, lsq: dict, chain_path: str | os.P
                 raise RoboballError(f"{chain_path}: holds a chain of a different fit (differs in "
                                     f"{', '.join(diff)}); delete it or give another chain path")
             resumed_from = int(it)
-    moves = moves if moves is not None else _default_moves(n_walkers, problem.ndim)
-    sampler = emcee.EnsembleSampler(n_walkers, problem.ndim, problem.log_prob, vectorize=True,
-                                    backend=backend, moves=moves)
+
+    def stage_of(n_done: int) -> int:
+        return sum(n_done >= a for a in schedule)
+
+    def make_sampler(stage: int):
+        # a new sampler on a used backend continues from its last sample and random state
+        if not adaptive:
+            mv = moves
+        elif stage == 0:
+            mv = _default_moves(n_walkers, problem.ndim)
+        else:
+            mv = _adapted_moves(backend.get_chain(), stage, schedule)
+        return emcee.EnsembleSampler(n_walkers, problem.ndim, problem.log_prob, vectorize=True,
+                                     backend=backend, moves=mv)
+
     if resumed_from == 0:
         backend.reset(n_walkers, problem.ndim)
         _meta_attrs(chain_path, meta)
         rng = np.random.default_rng([seed, 1])
         initial = _initial_walkers(problem, lsq, n_walkers, rng)
+        stage = 0
+        sampler = make_sampler(stage)
         sampler._random = np.random.RandomState(np.random.SeedSequence([seed, 2]).generate_state(1)[0])
     else:
         initial = None
+        stage = stage_of(resumed_from)
+        sampler = make_sampler(stage)
     converged = False
     burn, tau = 0, np.full(problem.ndim, np.nan)
     while True:
         n = backend.iteration
+        start = adapt if (adaptive and n >= adapt + min_steps) else 0
         if n >= min_steps:
-            burn, tau = _burn_and_tau(backend.get_chain())
-            if np.all(np.isfinite(tau)) and (n - burn) >= autocorr_multiple * float(np.max(tau)):
+            burn_rel, tau = _burn_and_tau(backend.get_chain()[start:])
+            burn = start + burn_rel
+            # only the production phase is judged (its samples come from one fixed kernel), and
+            # only once it has min_steps steps
+            judge = not adaptive or n >= adapt + min_steps
+            if judge and np.all(np.isfinite(tau)) and (n - burn) >= autocorr_multiple * float(np.max(tau)):
                 converged = True
                 break
         if n >= max_steps:
             break
+        if stage_of(n) != stage:
+            stage = stage_of(n)
+            sampler = make_sampler(stage)
         target = min(max_steps, (n // chunk + 1) * chunk)
+        if stage < len(schedule):
+            target = min(target, schedule[stage])
         state = initial if n == 0 else None
         sampler.run_mcmc(state, target - n, progress=False)
         initial = None
@@ -704,7 +802,8 @@ def sample_posterior(problem: FrictionProblem, lsq: dict, chain_path: str | os.P
     return {"chain": chain, "log_prob": backend.get_log_prob(), "burn": int(burn), "tau": np.asarray(tau),
             "converged": bool(converged), "acceptance": backend.accepted / max(backend.iteration, 1),
             "n_steps": int(backend.iteration), "resumed_from": resumed_from, "n_walkers": int(n_walkers),
-            "autocorr_multiple": float(autocorr_multiple), "max_steps": int(max_steps), "chain_path": str(chain_path)}
+            "autocorr_multiple": float(autocorr_multiple), "max_steps": int(max_steps), "chain_path": str(chain_path),
+            "adapt_steps": adapt, "adapt_schedule": list(schedule)}
 
 
 # ---------------------------------------------------------------------------------------------
@@ -827,7 +926,7 @@ def summarize(problem: FrictionProblem, lsq: dict, post: dict, seed: int = 0, n_
            "release_angles_rad": [a["median"] for a in angles], "release_angles": angles,
            "release_times_s": [float(s.t_release) for s in problem.segments],
            "fit": fit_stats, "convergence": conv,
-           "integration": {"method": "RK4 + implicit stiction step (roboball.reduced)", "dt_s": problem.dt,
+           "integration": {"method": "RK4 + implicit stiction step (roboball.reduced, compiled loop roboball.reduced_kernel)", "dt_s": problem.dt,
                            "step_error_rad": step_error},
            "angles_sampled": problem.angles_sampled, "chain": post["chain_path"],
            "seed": int(seed), "notes": notes}
@@ -844,7 +943,7 @@ def summarize(problem: FrictionProblem, lsq: dict, post: dict, seed: int = 0, n_
 def fit_segments(kind: str, law: str, segments: Sequence, chain_path: str | os.PathLike,
                  priors: Mapping | str | os.PathLike | None = None, *, seed: int = 0, walkers: int = 32,
                  autocorr_multiple: float = 50.0, max_steps: int = 20000, dt: float | None = None,
-                 chunk: int = 100, robot: RobotFacts | None = None, fixed: Mapping | None = None,
+                 chunk: int = 50, robot: RobotFacts | None = None, fixed: Mapping | None = None,
                  source: str = "data", moves=None, min_steps: int = 100,
                  sample_angles: bool = True) -> tuple[dict, pd.DataFrame]:
     """Full fit of `law` on stand `kind` from segments (:func:`segments_from_arrays` input or
@@ -898,7 +997,7 @@ def _refine(problem: FrictionProblem, lsq: dict, seed: int) -> dict:
 
     problem.start_point = lambda: lsq["x"]            # noqa: E731 - start from the previous optimum
     try:
-        return least_squares_fit(problem, seed=seed, n_candidates=0, n_starts=1)
+        return least_squares_fit(problem, seed=seed, n_candidates=0, n_starts=1, max_nfev=30)
     finally:
         problem.start_point = saved
 
