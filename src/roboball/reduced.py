@@ -2,10 +2,13 @@
 
 Why: identifying friction with MCMC needs the simulated swing for thousands of parameter sets.
 Drake simulates one set at a time; these models integrate the same physics for a whole batch
-(every emcee walker, every release, every finite-difference perturbation) in one NumPy loop,
-so the per-step Python overhead is paid once per batch.  The friction torque is computed by
-the law functions of :mod:`roboball.physics.friction` (the same functions the Drake diagram
-evaluates symbolically); nothing here re-implements a law.
+(every emcee walker, every release, every finite-difference perturbation) in one call.  Runs
+with a friction law alone go through the compiled loop of :mod:`roboball.reduced_kernel` (the
+same algorithm in machine code, rows in parallel threads); runs with extra torques (diagnosis
+effects, the injected shell) use the NumPy loop here, which pays the per-step Python overhead
+once per batch.  The friction torque is computed by the law functions of
+:mod:`roboball.physics.friction` (the same functions the Drake diagram evaluates symbolically,
+and the compiled loop compiles); nothing here re-implements a law.
 
 Models (one generalised coordinate q, robot constants from ``configs/robot.yaml``)
 -----------------------------------------------------------------------------------
