@@ -180,3 +180,44 @@ def test_release_angles_stay_inside_the_joint_limits():
     with pytest.raises(RoboballError, match=r"release 1 starts at 1.600 rad, outside the steer joint's limits"):
         F.FrictionProblem("steer_stand", "viscous", F.segments_from_arrays([(t, np.cos(t), {"t_release_s": 0.0, "y_release": 1.6})]),
                           F.law_priors("steer", "viscous"), robot=ROBOT)
+
+
+def test_adaptive_chain_resumes_identically_across_its_stages(tmp_path):
+    """Killed inside the DE stage, inside the first independence stage and in production, the
+    resumed chain is the uninterrupted one step for step (the proposal of each stage is refitted
+    from the stored chain, and the random state comes from the HDF5 file)."""
+    segs = F.segments_from_arrays(synthetic_stand("viscous", {"c": 0.3}, seed=3, angles=(0.6, -0.5), duration=2.0))
+    problem = F.FrictionProblem("steer_stand", "viscous", segs, F.law_priors("steer", "viscous"), dt=5e-3)
+    lsq = F.least_squares_fit(problem, seed=0)
+    kw = dict(seed=4, n_walkers=10, autocorr_multiple=1e6, chunk=5, min_steps=5, adapt_schedule=(10, 20))
+    full = F.sample_posterior(problem, lsq, tmp_path / "full.h5", max_steps=40, **kw)
+    assert full["adapt_schedule"] == [10, 20] and full["burn"] >= 20     # burn-in counts from production
+    for stop in (7, 15, 30):
+        path = tmp_path / f"part{stop}.h5"
+        F.sample_posterior(problem, lsq, path, max_steps=stop, **kw)
+        resumed = F.sample_posterior(problem, lsq, path, max_steps=40, **kw)
+        assert resumed["resumed_from"] == stop
+        assert np.array_equal(resumed["chain"], full["chain"]), stop
+    # a chain stored under another adaptation schedule is refused, not continued
+    with pytest.raises(RoboballError, match="different fit"):
+        F.sample_posterior(problem, lsq, tmp_path / "full.h5", max_steps=50, **{**kw, "adapt_schedule": (12, 20)})
+
+
+def test_independence_proposal_samples_a_known_gaussian_exactly():
+    """The MH correction of IndependentT: a deliberately wrong proposal (shifted mean, wrong
+    widths) still samples the target N(mu, diag(s^2))."""
+    import emcee
+
+    mu, s = np.array([1.0, -2.0, 0.5]), np.array([0.5, 2.0, 0.1])
+
+    def log_prob(x):
+        return -0.5 * np.sum(((x - mu) / s) ** 2, axis=1)
+
+    prop = F.IndependentT(mu + 0.5 * s, np.diag((1.5 * s) ** 2), df=6.0, scale=1.0)
+    sampler = emcee.EnsembleSampler(16, 3, log_prob, vectorize=True, moves=[(emcee.moves.MHMove(prop), 1.0)])
+    sampler._random = np.random.RandomState(7)
+    sampler.run_mcmc(mu + 0.1 * s * np.random.default_rng(1).standard_normal((16, 3)), 3000, progress=False)
+    x = sampler.get_chain(discard=200, flat=True)
+    assert np.all(np.abs(x.mean(axis=0) - mu) < 0.05 * s)                       # within 5% of each sd
+    assert np.allclose(x.std(axis=0), s, rtol=0.05)
+    assert 0.2 < np.mean(sampler.acceptance_fraction) < 0.9
