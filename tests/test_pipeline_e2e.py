@@ -73,6 +73,11 @@ def test_every_listed_figure_and_table_is_built(built):
     for table in ["table1_friction.md", "table2_robot.md", "table_pme.csv", "table_pme.md", "table_sweep.md",
                   "uncertainty_report.html"]:
         assert (pf / table).stat().st_size > 100, table
+    # the diagnosed model is the fourth contact model of Fig. 13/14, on every pressure
+    pme = pd.read_csv(pf / "table_pme.csv")
+    assert set(pme.contact) == {"point", "injected", "hydroelastic", "diagnosed"}
+    assert set(pme[pme.contact == "diagnosed"].pressure_kpa) == {6.9, 10.3, 13.8, 17.2, 20.7}
+    assert "Diagnosis of missing physics" in (pf / "uncertainty_report.html").read_text()
     for scenario in ["steer_stand", "drive_stand", "shell_rock", "ramp"]:
         assert (built / "results" / "replays" / f"{scenario}.html").stat().st_size > 100_000, scenario
     # The real steer-stand log goes through the same rules (issue 4, acceptance 5).
@@ -109,8 +114,10 @@ def test_touching_one_ramp_log_reruns_only_its_jobs(built):
         planned = _planned(built)
         assert planned.get("ingest") == 1
         assert planned.get("ramp_sim") == 3          # one per contact model
-        assert set(planned) <= {"ingest", "ramp_sim", "ramp_summary", "fig13_14", "uncertainty_report",
-                                "all"}, planned
+        assert planned.get("diagnose") == 1          # its diagnosis ...
+        assert planned.get("ramp_diagnosed") == 3    # ... feeds the diagnosed model of every run at 13.8 kPa
+        assert set(planned) <= {"ingest", "ramp_sim", "diagnose", "ramp_diagnosed", "ramp_summary", "fig13_14",
+                                "uncertainty_report", "all"}, planned
     finally:
         log.write_bytes(original)                    # the old content again: nothing to redo
     assert _planned(built) == {}

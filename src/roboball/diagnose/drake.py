@@ -82,9 +82,15 @@ def drake_spec(prep: Prepared, model: ReducedModel, values: dict, effects, dt: f
     if kind == "shell_rock":
         return SimSpec(kind=kind, contact="point", friction={"steer": "none", "drive": "none"}, dt=dt,
                        pressure_kpa=prep.recording.pressure_kpa, extra_terms=extra)
-    return SimSpec(kind="ramp", contact="point", friction={"steer": "majd", "drive": "majd"}, dt=dt,
-                   pressure_kpa=prep.recording.pressure_kpa, ramp_angle_deg=prep.recording.ramp_angle_deg,
-                   extra_terms=extra)
+    return ramp_spec(prep.recording.pressure_kpa, prep.recording.ramp_angle_deg, extra, dt)
+
+
+def ramp_spec(pressure_kpa, ramp_angle_deg, extra_terms=(), dt: float | None = None) -> SimSpec:
+    """The ramp baseline of the contract (point contact, Table I Majd friction on both joints)
+    with `extra_terms` (the diagnosed effects) added."""
+    return SimSpec(kind="ramp", contact="point", friction={"steer": "majd", "drive": "majd"},
+                   dt=dt or DRAKE_DT["ramp"], pressure_kpa=pressure_kpa, ramp_angle_deg=ramp_angle_deg,
+                   extra_terms=list(extra_terms))
 
 
 def _level_before(prep: Prepared, column: str, t0: float) -> float:

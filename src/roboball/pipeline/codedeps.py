@@ -20,7 +20,7 @@ PACKAGE = "roboball"
 # The stage modules, in the order `roboball stage` searches them (roboball.pipeline_cli).
 STAGE_MODULES = ("roboball.pipeline.ident", "roboball.pipeline.simulation", "roboball.pipeline.figures",
                  "roboball.pipeline.friction_figs", "roboball.pipeline.report", "roboball.pipeline.friction",
-                 "roboball.pipeline.deflating")
+                 "roboball.pipeline.deflating", "roboball.pipeline.diagnosis")
 ROBOT_FACTS_READER = "roboball.config"
 
 

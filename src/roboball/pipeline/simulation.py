@@ -102,6 +102,20 @@ def _majd_from_fit(path):
     return {k: v["median"] for k, v in d["parameters"].items() if k in friction_params_of("majd")}
 
 
+def ramp_window(rec, releases: str) -> tuple[np.ndarray, np.ndarray, float]:
+    """The scored part of a recorded descent: times since the release (s) and drive rates
+    (rad/s) from the release until the robot leaves the ramp, and the pipe angle held before
+    the release (rad), from which every model's simulation starts."""
+    r = _releases(releases)["releases"][0]
+    t0 = r["t_release_s"]
+    t_end = rec.meta.get("ramp_exit_s") or r["t_end_s"]
+    t = rec.time
+    on_ramp = (t >= t0) & (t <= t_end)
+    pipe0 = float(np.median(rec.signal("pipe_angle_rad")[(t <= t0) & (t >= t0 - 0.3)])) \
+        if "pipe_angle_rad" in rec.data else 0.0
+    return t[on_ramp] - t0, rec.signal("drive_rate_rad_s")[on_ramp], pipe0
+
+
 def ramp_sim(recording: str, releases: str, regression: str, contact: str, out_csv: str,
              out_trace: str = "", friction_steer: str = "", friction_drive: str = "",
              dissipation_scale: float = 1.0, modulus_scale: float = 1.0, dt: float = 0.001,
@@ -114,16 +128,7 @@ def ramp_sim(recording: str, releases: str, regression: str, contact: str, out_c
     from ..sim.scenarios import simulate
 
     rec = read_recording(recording)
-    info = _releases(releases)
-    r = info["releases"][0]
-    t0 = r["t_release_s"]
-    t_end = rec.meta.get("ramp_exit_s") or r["t_end_s"]
-    t = rec.time
-    on_ramp = (t >= t0) & (t <= t_end)
-    w_e = rec.signal("drive_rate_rad_s")[on_ramp]
-    tt = t[on_ramp] - t0
-    pipe0 = float(np.median(rec.signal("pipe_angle_rad")[(t <= t0) & (t >= t0 - 0.3)])) \
-        if "pipe_angle_rad" in rec.data else 0.0
+    tt, w_e, pipe0 = ramp_window(rec, releases)
     p = rec.pressure_kpa
     zeta, omega = shell_at(regression, p)
     params = {"steer": _majd_from_fit(friction_steer), "drive": _majd_from_fit(friction_drive)}
@@ -140,7 +145,7 @@ def ramp_sim(recording: str, releases: str, regression: str, contact: str, out_c
 
     w_s = run(params)
     row = {"recording": rec.path.stem if rec.path else recording, "pressure_kpa": p, "contact": contact,
-           "pme_percent": pme(w_e, w_s), "initial_pipe_angle_rad": pipe0, "n_samples": int(on_ramp.sum()),
+           "pme_percent": pme(w_e, w_s), "initial_pipe_angle_rad": pipe0, "n_samples": int(tt.size),
            "ramp_time_s": float(tt[-1])}
     draws = []
     if posterior_draws and friction_steer and friction_drive:

@@ -1,0 +1,88 @@
+"""Diagnosis stages: `roboball diagnose` on recordings of the campaign and the real logs, and the
+diagnosed model of the ramp scored like the paper's three (the fourth bar of Fig. 13/14).
+
+The diagnosed ramp model is the contract's ramp baseline (point contact, Table I Majd friction
+on both joints: ../shared/specs/diagnosis.md) plus the effects the diagnosis found, evaluated as a
+Drake force element (roboball.diagnose.drake.effect_term).  It is scored out of sample: the
+effects and their parameters for one run come from the diagnoses of the OTHER runs at the same
+pressure (the effect set they name most often, each parameter the median over the diagnoses
+that name that set).  Its PME (eq. 12) is computed on the same samples, from the same start, as
+the paper's models (roboball.pipeline.simulation.ramp_window).
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ..atomic import write_csv_atomic
+from ..errors import RoboballError
+from .simulation import pme, ramp_window
+
+STAGES = ("diagnose_recording", "ramp_diagnosed")
+
+
+def diagnose_recording(recording: str, out_dir: str) -> None:
+    """`roboball diagnose` on one recording (CSV with its sidecar): diagnosis.json, report.md,
+    predictions.csv and the figures in `out_dir`."""
+    from ..diagnose import diagnose
+
+    diagnose(recording, out_dir=out_dir)
+
+
+def consensus_effects(diagnoses: list) -> dict:
+    """{effect: {param: value}} from the diagnoses (JSON paths): the effect set named most often
+    (ties: the set whose best diagnosis has the lowest held-out RMS after), each parameter the
+    median over the diagnoses that name that set.  Parameters of different sets are never mixed
+    (a damping fitted alone and one fitted beside a rolling resistance are different numbers)."""
+    by_set: dict = {}
+    for path in diagnoses:
+        try:
+            with open(path, encoding="utf-8") as fh:
+                d = json.load(fh)
+            found = {m["effect"]: m["parameters"] for m in d["missing_physics"]}
+        except (OSError, json.JSONDecodeError, KeyError, TypeError) as exc:
+            raise RoboballError(f"{path}: not a diagnosis.json ({exc})")
+        rmse = d.get("fit", {}).get("rmse_heldout_after")
+        by_set.setdefault(tuple(sorted(found)), []).append((float(rmse) if rmse is not None else np.inf, found))
+    if not by_set:
+        return {}
+    key = max(by_set, key=lambda k: (len(by_set[k]), -min(r for r, _ in by_set[k])))
+    entries = [f for _, f in by_set[key]]
+    return {e: {p: float(np.median([f[e][p] for f in entries])) for p in entries[0][e]} for e in key}
+
+
+def describe(effects: dict) -> str:
+    return "; ".join(f"{e}(" + ", ".join(f"{k}={v:.4g}" for k, v in p.items()) + ")" for e, p in effects.items()) \
+        or "none"
+
+
+def ramp_diagnosed(recording: str, releases: str, diagnoses: list, out_csv: str, out_trace: str = "",
+                   dt: float = 0.001) -> None:
+    """Ramp descent of one recorded run with the diagnosed model (effects from `diagnoses`, the
+    other runs' diagnosis.json files), scored by PME like the paper's contact models."""
+    from ..diagnose.drake import effect_term, ramp_spec
+    from ..diagnose.models import model_for
+    from ..recording import read_recording
+    from ..sim.scenarios import simulate
+
+    if not diagnoses:
+        raise RoboballError(f"{recording}: no diagnoses of other runs to take the diagnosed effects from")
+    rec = read_recording(recording)
+    tt, w_e, pipe0 = ramp_window(rec, releases)
+    effects = consensus_effects(diagnoses)
+    angle = rec.meta.get("ramp_angle_deg")
+    term = effect_term(model_for("ramp", ramp_angle_deg=angle), effects)
+    spec = ramp_spec(rec.pressure_kpa, angle, [term] if term is not None else [], dt)
+    df = simulate(spec, pipe0, float(tt[-1]) + 0.05, sample_rate_hz=200.0)
+    w_s = np.interp(tt, df.time_s.to_numpy(), df.drive_rate_rad_s.to_numpy())
+    row = {"recording": rec.path.stem if rec.path else recording, "pressure_kpa": rec.pressure_kpa,
+           "contact": "diagnosed", "pme_percent": pme(w_e, w_s), "initial_pipe_angle_rad": pipe0,
+           "n_samples": int(tt.size), "ramp_time_s": float(tt[-1]), "diagnosed_effects": describe(effects),
+           "effects_from": " ".join(Path(p).parent.name for p in diagnoses)}
+    write_csv_atomic(pd.DataFrame([row]), out_csv)
+    if out_trace:
+        write_csv_atomic(pd.DataFrame({"time_s": tt, "drive_rate_measured_rad_s": w_e,
+                                       "drive_rate_sim_rad_s": w_s}), out_trace)
