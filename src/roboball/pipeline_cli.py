@@ -17,8 +17,14 @@ def _stages(wanted: str | None = None) -> dict:
     """Stage name -> function.  With `wanted`, stop at the first module that defines it, so a
     stage does not pay for importing the others (matplotlib, Drake)."""
     import importlib
+
+    from .pipeline.codedeps import stage_module
     out = {}
-    for name in STAGE_MODULES:
+    try:                 # the module that declares the stage, found without importing the others
+        modules = (stage_module(wanted),) if wanted is not None else STAGE_MODULES
+    except KeyError:
+        modules = STAGE_MODULES
+    for name in modules:
         if wanted is not None and wanted in out:
             break
         try:
