@@ -126,3 +126,20 @@ def test_bad_input_exits_nonzero_with_one_line(tmp_path, capsys, args, needle):
     assert len(err.splitlines()) == 1, err
     assert needle in err
     assert not (tmp_path / "o" / "diagnosis.json").exists()
+
+
+def test_drake_runs_start_a_release_past_the_steer_stop_at_the_stop_with_a_note():
+    """The reduced model has no joint stop; a fitted start past it (the real log's 1.044 rad)
+    must not abort the Drake overlay (Drake refuses such a release): it starts at the limit and
+    the report says so."""
+    from roboball.diagnose.data import prepare, read
+    from roboball.diagnose.drake import simulate_windows
+    from roboball.diagnose.models import model_for
+
+    prep = prepare(read(REPO / "raw_data" / "steer_stand" / "steer_stand_r1.csv"))
+    prep.windows = prep.windows[:1]
+    w = prep.windows[0]
+    w.t, w.y = w.t[w.t <= w.t0 + 1.0], w.y[w.t <= w.t0 + 1.0]
+    pred = simulate_windows(prep, model_for("steer_stand"), {"viscous_c": 0.2, "q0@0": 1.2}, ())
+    assert np.all(np.isfinite(pred[0])) and abs(pred[0][0] - 1.0) < 0.02
+    assert any("past the steer joint's limits" in n and "start at the limit" in n for n in prep.notes)

@@ -117,6 +117,17 @@ def simulate_windows(prep: Prepared, model: ReducedModel, values: dict, effects,
         else:
             release = float(values.get(f"q0@{w.index}", w.q0))
             steer0 = 0.0
+            if prep.kind == "steer_stand":
+                # the reduced model has no joint stop; Drake refuses a release past it (the real
+                # log's third swing starts at 1.044 rad, beyond the robot facts' 1.0 rad stop)
+                joint = built.plant.GetJointByName("steer")
+                lo, hi = float(joint.position_lower_limits()[0]), float(joint.position_upper_limits()[0])
+                if not lo <= release <= hi:
+                    note = (f"release {w.index + 1}: start angle {release:.4g} rad lies past the steer joint's "
+                            f"limits [{lo:g}, {hi:g}] rad of the robot facts; the Drake runs start at the limit")
+                    if note not in prep.notes:
+                        prep.notes.append(note)
+                    release = min(max(release, lo), hi)
         df = simulate(spec, release, max(duration, 0.1), sample_rate_hz=rate, steer0=steer0, built=built)
         tau = w.t - w.t0 - ts
         y = df[prep.signal].to_numpy()
