@@ -14,8 +14,9 @@ from .pipeline.codedeps import STAGE_MODULES   # one list: the CLI's search orde
 
 
 def _stages(wanted: str | None = None) -> dict:
-    """Stage name -> function.  With `wanted`, stop at the first module that defines it, so a
-    stage does not pay for importing the others (matplotlib, Drake)."""
+    """Stage name -> function.  With `wanted`, import only the module that declares it (found in
+    the stage table without importing anything), so a stage does not pay for importing the
+    others (matplotlib, Drake); an unknown name imports them all to list the stages."""
     import importlib
 
     from .pipeline.codedeps import stage_module

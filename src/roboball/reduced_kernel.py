@@ -19,6 +19,7 @@ Results do not depend on the number of threads: rows are independent.
 """
 from __future__ import annotations
 
+import inspect
 import math
 
 import numpy as np
@@ -26,23 +27,14 @@ import numpy as np
 from .physics import friction
 from .physics.mathns import scalar
 
-__all__ = ["available", "supports", "integrate_rows", "hermite_rows"]
+__all__ = ["supports", "integrate_rows"]
 
-_NEWTON_MAX_IT = 40          # as reduced._NEWTON_MAX_IT
 _KERNELS: dict = {}
 
 
-def available() -> bool:
-    """True when Numba imports (it is a declared dependency; this guards odd installs)."""
-    try:
-        import numba  # noqa: F401
-    except ImportError:        # pragma: no cover - numba is pinned in pyproject.toml
-        return False
-    return True
-
-
 def supports(law: str, extra_torque, record_work: bool) -> bool:
-    return extra_torque is None and not record_work and law in ("viscous", "coulomb_viscous", "majd") and available()
+    """True when the compiled loop can run this batch: a friction law alone, no work record."""
+    return extra_torque is None and not record_work and law in friction.LAWS and law != "none"
 
 
 def _law_call(law: str):
@@ -64,6 +56,8 @@ def _kernel(law: str):
     if law in _KERNELS:
         return _KERNELS[law]
     from numba import njit, prange
+
+    from .reduced import _NEWTON_MAX_IT        # the NumPy loop's iteration cap, frozen into the kernel
 
     fric = _law_call(law)
 
@@ -173,10 +167,10 @@ def integrate_rows(model, law: str, params: dict, q0: np.ndarray, v0: np.ndarray
     state after); returns (Q, V) of shape (B, n + 1) and the most implicit steps of any row."""
     B = q0.size
     names = friction.PARAMS[law]
-    defaults = {"v_tol": 0.01}
+    law_args = inspect.signature(getattr(friction, law)).parameters    # a missing v_tol: the law's default
     P = np.empty((B, len(names)))
     for j, name in enumerate(names):
-        P[:, j] = params[name] if name in params else defaults[name]
+        P[:, j] = params[name] if name in params else law_args[name].default
     Q = np.empty((B, n + 1))
     V = np.empty((B, n + 1))
     n_impl = np.zeros(B, dtype=np.int64)
@@ -189,16 +183,3 @@ def integrate_rows(model, law: str, params: dict, q0: np.ndarray, v0: np.ndarray
         float(model.radius_m * model.mass_moment_kg_m), scalar(), Q, V, n_impl)
     return Q, V, int(n_impl.max()) if B else 0
 
-
-def hermite_rows(Q: np.ndarray, V: np.ndarray, dt: float, t: np.ndarray) -> np.ndarray:
-    """Cubic Hermite interpolation of rows (B, n + 1) at times `t` (as ``reduced.sample``)."""
-    n = Q.shape[1] - 1
-    tc = np.clip(np.asarray(t, dtype=float), 0.0, n * dt)
-    k = np.minimum((tc / dt).astype(int), n - 1)
-    u = (tc - k * dt) / dt
-    u2, u3 = u * u, u * u * u
-    h00 = 2 * u3 - 3 * u2 + 1
-    h10 = (u3 - 2 * u2 + u) * dt
-    h01 = -2 * u3 + 3 * u2
-    h11 = (u3 - u2) * dt
-    return h00 * Q[:, k] + h10 * V[:, k] + h01 * Q[:, k + 1] + h11 * V[:, k + 1]

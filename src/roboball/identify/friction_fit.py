@@ -777,13 +777,13 @@ def sample_posterior(problem: FrictionProblem, lsq: dict, chain_path: str | os.P
     burn, tau = 0, np.full(problem.ndim, np.nan)
     while True:
         n = backend.iteration
-        start = adapt if (adaptive and n >= adapt + min_steps) else 0
+        # only the production phase (adapt = 0 without adaptation) is judged, once it has
+        # min_steps steps: its samples come from one fixed kernel
+        judge = n >= adapt + min_steps
         if n >= min_steps:
+            start = adapt if judge else 0
             burn_rel, tau = _burn_and_tau(backend.get_chain()[start:])
             burn = start + burn_rel
-            # only the production phase is judged (its samples come from one fixed kernel), and
-            # only once it has min_steps steps
-            judge = not adaptive or n >= adapt + min_steps
             if judge and np.all(np.isfinite(tau)) and (n - burn) >= autocorr_multiple * float(np.max(tau)):
                 converged = True
                 break
@@ -803,7 +803,7 @@ def sample_posterior(problem: FrictionProblem, lsq: dict, chain_path: str | os.P
             "converged": bool(converged), "acceptance": backend.accepted / max(backend.iteration, 1),
             "n_steps": int(backend.iteration), "resumed_from": resumed_from, "n_walkers": int(n_walkers),
             "autocorr_multiple": float(autocorr_multiple), "max_steps": int(max_steps), "chain_path": str(chain_path),
-            "adapt_steps": adapt, "adapt_schedule": list(schedule)}
+            "adapt_schedule": list(schedule)}
 
 
 # ---------------------------------------------------------------------------------------------
