@@ -8,7 +8,8 @@ import pytest
 
 from roboball.sim.plant import SimSpec
 from roboball.sim.scenarios import simulate
-from roboball.testbed.campaign import generate
+from roboball.testbed.campaign import generate, jobs, ramp_release_s
+from roboball.testbed.physics import load_truth
 from roboball.testbed.run import ALL_EXTRAS, run_free
 
 REPO = Path(__file__).resolve().parents[1]
@@ -39,6 +40,32 @@ def test_manifest_lists_every_file_with_its_hash():
     assert (man[man.kind == "ramp"].groupby("pressure_kpa").size() >= 3).all()
     for row in man.itertuples():
         assert hashlib.sha256((RAW / row.file).read_bytes()).hexdigest() == row.sha256, row.file
+
+
+def test_the_ramp_release_ground_truth_matches_the_committed_recordings():
+    """ramp_release_s (used by benchmarks/ramp_release_audit.py) recomputes the let-go instant
+    from the run's seed: the recorded drive rate is still before it and moving soon after."""
+    truth = load_truth()
+    for job in (j for j in jobs(truth) if j["kind"] == "ramp"):
+        t_r = ramp_release_s(job["file"], truth)
+        df = pd.read_csv(RAW / job["file"])
+        t, w = df.time_s.to_numpy(), df.drive_rate_rad_s.to_numpy()
+        assert np.max(np.abs(w[t < t_r])) < 0.1, job["file"]
+        assert np.max(w[(t > t_r) & (t < t_r + 0.15)]) > 0.5, job["file"]
+
+
+def test_the_ramp_release_ground_truth_is_not_any_instant_of_the_hold():
+    """The checks above have power: a release drawn from another run's seed fails them."""
+    truth = load_truth()
+    ramps = [j["file"] for j in jobs(truth) if j["kind"] == "ramp"]
+    failures = 0
+    for a, b in zip(ramps, ramps[1:] + ramps[:1]):
+        t_r = ramp_release_s(b, truth)
+        df = pd.read_csv(RAW / a)
+        t, w = df.time_s.to_numpy(), df.drive_rate_rad_s.to_numpy()
+        ok = np.max(np.abs(w[t < t_r])) < 0.1 and np.max(w[(t > t_r) & (t < t_r + 0.15)]) > 0.5
+        failures += not ok
+    assert failures >= len(ramps) // 2
 
 
 @pytest.mark.parametrize("name", ["steer_stand_r1", "ramp_10.3kpa_r2"])

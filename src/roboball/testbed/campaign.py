@@ -77,14 +77,31 @@ def release_recording(kind: str, p_kpa, releases, free_s: float, truth: dict, rn
     return dense
 
 
+def _ramp_start(rng, truth: dict) -> tuple[float, int]:
+    """A ramp run's random start, the first two draws of its generator: the initial pipe angle
+    (rad) and the number of samples (at the internal rate) held still before the release."""
+    c = truth["campaign"]["ramp"]
+    phi0 = float(rng.normal(0.0, c["initial_pipe_angle_sd_rad"]))
+    pre = rng.uniform(*c["pre_hold_s"])
+    return phi0, int(pre * truth["simulation"]["sample_rate_hz"])
+
+
+def ramp_release_s(file: str, truth: dict | None = None) -> float:
+    """The instant (s, recording time) at which the test bed let go of the ramp run `file` (as
+    named in the MANIFEST, e.g. "ramp/ramp_20.7kpa_r1.csv"): ground truth that the recording
+    does not carry, for auditing release detection (benchmarks/ramp_release_audit.py)."""
+    truth = truth or load_truth()
+    _, n_pre = _ramp_start(_rng(truth["seed"], file), truth)
+    return n_pre / truth["simulation"]["sample_rate_hz"]
+
+
 def ramp_recording(p_kpa: float, truth: dict, rng, extras=ALL_EXTRAS, extra_terms=(), extra_systems=(),
                    base_friction=None, robot=None):
     """Held at rest on the ramp, released, rolls off the end onto the floor.
     `base_friction` and `robot`: see roboball.testbed.run.truth_spec (blind diagnosis cases)."""
     c = truth["campaign"]["ramp"]
     rate = truth["simulation"]["sample_rate_hz"]
-    phi0 = float(rng.normal(0.0, c["initial_pipe_angle_sd_rad"]))
-    pre = rng.uniform(*c["pre_hold_s"])
+    phi0, n_pre = _ramp_start(rng, truth)
     # Long enough to leave the ramp; trimmed to exit + after_exit below.
     df, x, spec = run_free("ramp", phi0, 4.0, p_kpa, truth, extras, ramp_length_m=c["length_m"],
                            extra_terms=extra_terms, extra_systems=extra_systems, base_friction=base_friction,
@@ -92,7 +109,6 @@ def ramp_recording(p_kpa: float, truth: dict, rng, extras=ALL_EXTRAS, extra_term
     t_exit = ramp_exit_time(df, x, spec)
     if t_exit is not None:
         df = df[df.time_s <= t_exit + c["after_exit_s"]]
-    n_pre = int(pre * rate)
     head = pd.DataFrame({col: np.full(n_pre, df[col].iloc[0]) for col in df.columns})
     head["time_s"] = np.arange(n_pre) / rate
     body = df.copy()
