@@ -49,7 +49,10 @@ class RampModel(ReducedModel):
     """Planar ramp descent: rolling shell + pendulum about the driveshaft."""
 
     release_params = ("t_shift",)
-    ts_bound = 0.05            # s: the start of motion is sharp (hinge fit of the release finder)
+    # s: the start of motion is sharp; the release finder's hinge fit is within -1.5..+2.1 ms of
+    # the test bed's let-go instants (benchmarks/ramp_release_audit.py).  A wider bound lets a late
+    # start stand in for a torque that acts from the first instant (rolling resistance).
+    ts_bound = 0.0025
 
     def __init__(self, robot: RobotFacts | None = None, ramp_angle_deg: float | None = None):
         robot = robot or load_robot()
