@@ -14,11 +14,12 @@ responses after each release that the baseline must explain.  `prepare` finds th
   it.  A body still swinging when a hand takes it is cut at its last turning point: the hand
   may have grabbed anywhere in the half swing after it;
 * ramp: from the start of motion to `ramp_exit_s` (the paper uses only data before the robot
-  leaves the ramp).  The drive rate there carries a ~5 Hz bounce of the soft shell on the
-  ground that no effect of the vocabulary models (and no rigid baseline can): it dominates
-  the residual (0.15 rad/s RMS of 0.16 after the damping is found, on the test bed's runs) and
-  hides effects that change the speed's trend, such as a rolling resistance (6% of the RMS).
-  The diagnosis therefore fits the ramp's trend: after the release the measured rate is
+  leaves the ramp).  A soft shell that is not resting in its contact at the release (dropped,
+  or pushed) bounces on the ground at ~5 Hz, and the drive rate carries that bounce: no effect
+  of the vocabulary models it (and no rigid baseline can).  Before the test bed started its
+  runs settled in the contact (roboball.sim.scenarios.settle_on_ground) it was 90% of the
+  residual of its ramp runs and hid the effects that change the speed's trend.  The diagnosis
+  therefore fits the ramp's trend: after the release the measured rate is
   averaged over +-`RAMP_SMOOTH_S` = 0.1 s (a boxcar whose first zero is at 5 Hz; the window
   shrinks symmetrically at the ends, so a linear trend passes unbiased).  Reported RMS values
   of ramp diagnoses refer to that trend.
@@ -305,7 +306,7 @@ def prepare(rec: Recording) -> Prepared:
         if kind == "ramp":
             yw = smooth_after(t[sel], yw, t0, RAMP_SMOOTH_S)
             notes.append(f"release {i + 1}: the drive rate after the release is averaged over +-{RAMP_SMOOTH_S:g} s "
-                         "(the diagnosis fits the descent's trend, not the ~5 Hz contact bounce)")
+                         "(the diagnosis fits the descent's trend, not a contact bounce)")
         windows.append(Window(index=len(windows), t0=t0, t=t[sel], y=yw, q0=q0,
                               release=rel, end_reason=reason, start=start))
     if not windows:

@@ -72,22 +72,15 @@ def set_release(built: Built, context, release: float, steer0: float = 0.0) -> N
         settle_on_ground(built, context)
 
 
-def _normal_speed_after_one_step(built: Built, scratch, context, sink: float) -> float:
-    """Speed of the shell's centre along the ground normal after one time step from rest, with
-    the shell pressed `sink` metres into the ground (negative: still falling in)."""
+def _shift_along_normal(built: Built, context, sink: float) -> None:
     plant = built.plant
-    scratch.SetTimeStateAndParametersFrom(context)
-    pctx = plant.GetMyMutableContextFromRoot(scratch)
+    pctx = plant.GetMyMutableContextFromRoot(context)
     body = plant.GetBodyByName("pitch_center")
     X = plant.GetFreeBodyPose(pctx, body)
     plant.SetFreeBodyPose(pctx, body, RigidTransform(X.rotation(), X.translation() - sink * built.ground_normal))
-    sim = Simulator(built.diagram, scratch)
-    sim.Initialize()
-    sim.AdvanceTo(scratch.get_time() + built.spec.dt)
-    return float(plant.EvalBodySpatialVelocityInWorld(pctx, body).translational() @ built.ground_normal)
 
 
-def settle_on_ground(built: Built, context, max_sink_m: float = 0.05, iterations: int = 40) -> float:
+def settle_on_ground(built: Built, context, max_sink_m: float = 0.05, tol_m: float = 1e-6) -> float:
     """Press the resting shell into the ground by the penetration at which its contact holds its
     weight, and return that penetration (m).
 
@@ -95,25 +88,30 @@ def settle_on_ground(built: Built, context, max_sink_m: float = 0.05, iterations
     pressed in by 6-11 mm at the test pressures, rigid point contact by its penetration allowance
     (under 1 mm).  Started touching but not pressed in, the shell would first fall into the
     ground for 25-45 ms after the release and bounce at the contact's natural frequency: a start
-    transient no held robot has.  The penetration is found by bisection on the shell centre's
-    normal speed after one time step from rest (zero at equilibrium), in a scratch context."""
+    transient no held robot has.  The penetration is the root (Brent's method, to `tol_m`) of the
+    shell centre's speed along the ground normal after one time step from rest, computed in a
+    scratch context; a contact that does not hold the weight within `max_sink_m` leaves the
+    start as it was."""
+    from scipy.optimize import brentq
+
     scratch = built.diagram.CreateDefaultContext()
-    lo, hi = 0.0, max_sink_m
-    if _normal_speed_after_one_step(built, scratch, context, lo) >= 0.0 or \
-            _normal_speed_after_one_step(built, scratch, context, hi) <= 0.0:
-        return 0.0
-    for _ in range(iterations):
-        mid = 0.5 * (lo + hi)
-        if _normal_speed_after_one_step(built, scratch, context, mid) < 0.0:
-            lo = mid
-        else:
-            hi = mid
-    sink = 0.5 * (lo + hi)
+    sim = Simulator(built.diagram, scratch)
     plant = built.plant
-    pctx = plant.GetMyMutableContextFromRoot(context)
     body = plant.GetBodyByName("pitch_center")
-    X = plant.GetFreeBodyPose(pctx, body)
-    plant.SetFreeBodyPose(pctx, body, RigidTransform(X.rotation(), X.translation() - sink * built.ground_normal))
+    spctx = plant.GetMyContextFromRoot(scratch)
+
+    def normal_speed(sink: float) -> float:
+        scratch.SetTimeStateAndParametersFrom(context)
+        _shift_along_normal(built, scratch, sink)
+        sim.Initialize()
+        sim.AdvanceTo(scratch.get_time() + built.spec.dt)
+        return float(plant.EvalBodySpatialVelocityInWorld(spctx, body).translational() @ built.ground_normal)
+
+    lo, hi = normal_speed(0.0), normal_speed(max_sink_m)
+    if not (lo < 0.0 < hi):
+        return 0.0
+    sink = float(brentq(normal_speed, 0.0, max_sink_m, xtol=tol_m))
+    _shift_along_normal(built, context, sink)
     return sink
 
 

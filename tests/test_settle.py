@@ -1,0 +1,55 @@
+"""Ground runs start with the shell resting in its contact (roboball.sim.scenarios.settle_on_ground):
+no fall into the ground and no bounce after the release, for the soft hydroelastic shell (which
+sinks by millimetres) and rigid point contact alike."""
+import numpy as np
+import pytest
+
+from roboball.sim.plant import ShellParams, SimSpec, build
+from roboball.sim.scenarios import set_release, settle_on_ground, simulate
+
+HYDRO = dict(contact="hydroelastic", pressure_kpa=13.8, shell=ShellParams(zeta=0.10, omega_n=2.75, dissipation_scale=0.5))
+
+
+def _spec(kind, contact="point", **kw):
+    return SimSpec(kind=kind, friction={"steer": "majd", "drive": "majd"}, **({"contact": contact} | kw))
+
+
+def _height(built, x):
+    lay = built.layout
+    return x[lay.base_q + 4: lay.base_q + 7].T @ built.ground_normal
+
+
+@pytest.mark.parametrize("kw, lo_mm, hi_mm", [({}, 0.05, 2.0), (HYDRO, 5.0, 15.0)])
+def test_the_shell_starts_pressed_in_by_the_penetration_that_holds_its_weight(kw, lo_mm, hi_mm):
+    spec = _spec("ramp", **kw)
+    built = build(spec, sample_period=1e-3)
+    ctx = built.diagram.CreateDefaultContext()
+    set_release(built, ctx, 0.0)       # settles
+    fresh = built.diagram.CreateDefaultContext()
+    set_release(built, fresh, 0.0)
+    sink = settle_on_ground(built, fresh)   # a second settle from the settled state finds ~0 more
+    assert abs(sink) < 1e-4
+    r = built.robot.radius
+    h0 = float(built.plant.GetPositionsAndVelocities(built.plant.GetMyContextFromRoot(ctx))[built.layout.base_q + 4:
+                                                                                          built.layout.base_q + 7]
+               @ built.ground_normal)
+    assert lo_mm < 1e3 * (r - h0) < hi_mm
+
+
+def test_a_settled_hydroelastic_descent_starts_at_once_and_does_not_fall_into_the_ramp():
+    spec = _spec("ramp", **HYDRO)
+    built = build(spec, sample_period=1e-3)
+    df, x = simulate(spec, 0.0, 0.1, sample_rate_hz=1000.0, built=built, return_states=True)
+    h = _height(built, x)
+    assert np.ptp(h[:60]) < 5e-4                        # unsettled it falls by about 10 mm
+    w = df.drive_rate_rad_s.to_numpy()
+    assert w[20] > 0.1 and np.all(np.diff(w[:80]) > -0.02)   # rising from the start, no bounce
+
+
+def test_the_stands_are_not_touched():
+    spec = _spec("steer_stand")
+    built = build(spec)
+    ctx = built.diagram.CreateDefaultContext()
+    set_release(built, ctx, 0.5)
+    q = built.plant.GetPositions(built.plant.GetMyContextFromRoot(ctx))
+    assert q[built.layout.joint_q["steer"]] == 0.5
