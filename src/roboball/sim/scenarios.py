@@ -85,7 +85,7 @@ def settle_on_ground(built: Built, context, max_sink_m: float = 0.05, tol_m: flo
     weight, and return that penetration (m).
 
     A robot held still on the ground rests in its contact: a compliant (hydroelastic) shell is
-    pressed in by 6-11 mm at the test pressures, rigid point contact by its penetration allowance
+    pressed in by 6-17 mm at the test pressures, rigid point contact by its penetration allowance
     (under 1 mm).  Started touching but not pressed in, the shell would first fall into the
     ground for 25-45 ms after the release and bounce at the contact's natural frequency: a start
     transient no held robot has.  The penetration is the root (Brent's method, to `tol_m`) of the
