@@ -148,3 +148,21 @@ def test_a_steer_release_past_the_joint_stop_is_refused():
         simulate(spec, 1.158, 0.1)
     df = simulate(spec, 0.99, 0.1)                     # just inside: an ordinary swing
     assert np.all(np.diff(df.steer_angle_rad.to_numpy()) <= 1e-9) and df.steer_angle_rad.iloc[-1] > 0.8
+
+
+@pytest.mark.parametrize("contact", ["point", "hydroelastic"])
+def test_unsampled_output_ports_give_bit_identical_descents(monkeypatch, contact):
+    """build() turns off Drake's sampled output ports (a 2.4x cheaper step); the trajectory of a
+    ramp descent with Majd friction on both joints must not change by a single bit."""
+    import roboball.sim.plant as plant_mod
+    from roboball.sim.convergence import ramp_spec
+
+    spec = ramp_spec(contact, 2e-3)
+    runs = {}
+    for sampled in (True, False):
+        monkeypatch.setattr(plant_mod, "SAMPLED_OUTPUT_PORTS", sampled)
+        built = build(spec, sample_period=0.01)
+        assert built.plant.has_sampled_output_ports() is sampled
+        _, x = simulate(spec, 0.0, 0.6, built=built, return_states=True)
+        runs[sampled] = x
+    assert np.array_equal(runs[True], runs[False])
