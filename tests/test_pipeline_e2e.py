@@ -114,10 +114,12 @@ def test_touching_one_ramp_log_reruns_only_its_jobs(built):
         planned = _planned(built)
         assert planned.get("ingest") == 1
         assert planned.get("ramp_sim") == 3          # one per contact model
-        assert planned.get("diagnose") == 1          # its diagnosis ...
-        assert planned.get("ramp_diagnosed") == 3    # ... feeds the diagnosed model of every run at 13.8 kPa
-        assert set(planned) <= {"ingest", "ramp_sim", "diagnose", "ramp_diagnosed", "ramp_summary", "fig13_14",
-                                "uncertainty_report", "all"}, planned
+        assert planned.get("diagnose_ramp_pressure") == 1   # the pooled diagnosis at 13.8 kPa ...
+        assert planned.get("diagnose_ramp_heldout") == 2    # ... and the held-out ones of the other two runs
+        assert planned.get("ramp_diagnosed") == 3    # every run at 13.8 kPa: its own csv or a diagnosis changed
+        assert "diagnose" not in planned
+        assert set(planned) <= {"ingest", "ramp_sim", "diagnose_ramp_pressure", "diagnose_ramp_heldout",
+                                "ramp_diagnosed", "ramp_summary", "fig13_14", "uncertainty_report", "all"}, planned
     finally:
         log.write_bytes(original)                    # the old content again: nothing to redo
     assert _planned(built) == {}

@@ -54,7 +54,12 @@ class RampModel(ReducedModel):
     # start stand in for a torque that acts from the first instant (rolling resistance).
     ts_bound = 0.0025
 
-    def __init__(self, robot: RobotFacts | None = None, ramp_angle_deg: float | None = None):
+    def __init__(self, robot: RobotFacts | None = None, ramp_angle_deg: float | None = None,
+                 friction: dict | None = None):
+        """`friction`: Majd parameters per joint ({"steer": {...}, "drive": {...}}) that replace
+        Table I in the baseline (the pipeline passes the friction fitted on the stand logs, so
+        that the diagnosed model is the paper's point model + the effects found).  The reduced
+        model carries the drive joint's law; the Drake runs carry both."""
         robot = robot or load_robot()
         self.kind = "ramp"
         self.signal = "drive_rate_rad_s"
@@ -74,13 +79,24 @@ class RampModel(ReducedModel):
         self.radius = rolling_radius(robot)
         self.g = robot.g
         self.mu = float(robot.data["shell"]["ground_friction"])
-        self.majd = robot.majd_params("drive")
+        friction = {j: dict(p) for j, p in (friction or {}).items() if p}
+        unknown = set(friction) - {"steer", "drive"}
+        if unknown:
+            raise ValueError(f"baseline friction for unknown joint(s) {', '.join(sorted(unknown))} (steer, drive)")
+        for joint, params in friction.items():
+            missing = set(friction_laws.PARAMS["majd"]) - set(params)
+            if missing:
+                raise ValueError(f"baseline {joint} friction lacks Majd parameter(s) {', '.join(sorted(missing))}")
+        self.friction_params = {j: {k: float(friction[j][k]) for k in friction_laws.PARAMS["majd"]}
+                                for j in friction}
+        self.majd = self.friction_params.get("drive") or robot.majd_params("drive")
+        source = "fitted" if friction else "Table I"
         self.context = {"k_g": 0.0}
         self.base_params = ()
         self.candidates = ("viscous_damping", "rolling_resistance", "quadratic_drag")
         self.description = (f"planar ramp descent on {math.degrees(self.alpha):.3g} deg: shell rolling (or "
                             f"sliding beyond mu = {self.mu:g}) on rigid point contact + pendulum about the "
-                            "driveshaft, Majd friction (Table I) on the drive joint")
+                            f"driveshaft, Majd friction ({source}) on the drive joint")
 
     def simulate(self, q0, P: dict, n_steps: int, dt: float = DT):
         """Released from rest (pendulum hanging) for a batch; returns drive rate and its

@@ -123,7 +123,8 @@ rule uncertainty_report:
         regression="results/identify/shell_regression.csv",
         pme=f"{PF}/table_pme.csv",
         sweep=f"{PF}/table_sweep.md",
-        diagnoses=[f"results/diagnose/{s}/diagnosis.json" for s in stems("steer_stand", True) + stems("shell_rock", True) + RAMP],
+        diagnoses=[f"results/diagnose/{s}/diagnosis.json" for s in stems("steer_stand", True) + stems("shell_rock", True)]
+                  + [f"results/diagnose/pressure/{g}/diagnosis.json" for g in RAMP_GROUPS],
         figures=[f"{PF}/fig5_friction_laws.png", f"{PF}/fig7_testbed_steer_fits.png", f"{PF}/fig8_testbed_drive_fits.png",
                  f"{PF}/fig10_shell_dynamics.png", f"{PF}/fig11_hydro_sensitivity.png", f"{PF}/fig13_ramp_pme.png",
                  f"{PF}/fig14_ramp_pme_mean.png"] + ([f"{PF}/fig7_real_steer_fits.png"] if REAL_ON else []),

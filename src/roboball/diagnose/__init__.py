@@ -15,18 +15,35 @@ from __future__ import annotations
 
 
 def diagnose(recording, out_dir=None, kind: str | None = None, pressure_kpa: float | None = None,
-             settings=None, drake: bool = True, log=None):
-    """Diagnose one recording (a path, or a roboball.recording.Recording).
+             settings=None, drake: bool = True, log=None, friction: dict | None = None):
+    """Diagnose one recording (a path, or a roboball.recording.Recording), or several recordings
+    of one experiment together (a list: same kind, pressure and ramp angle; every release of
+    each is a release of the pooled fit, and held-out validation leaves one release out:
+    roboball.diagnose.data.pool).
+
+    `friction` replaces the ramp baseline's Table I joint friction ({"steer": {...}, "drive":
+    {...}} Majd parameters, e.g. from read_friction): the pipeline diagnoses the paper's point
+    model with the friction fitted on the stand logs.
 
     Returns (Diagnosis, diagnosis.json content).  With `out_dir`, writes diagnosis.json,
     report.md, details.json and the figures there (the Drake simulations of the baseline and
     augmented model run only then, or when `drake` is forced with an out_dir)."""
     from ..recording import Recording
-    from .data import prepare, read
+    from .data import pool, prepare, read
     from .decide import diagnose_prepared
+    from .models import model_for
 
-    rec = recording if isinstance(recording, Recording) else read(recording, kind=kind, pressure_kpa=pressure_kpa)
-    d = diagnose_prepared(prepare(rec), settings=settings, log=log)
+    items = list(recording) if isinstance(recording, (list, tuple)) else [recording]
+    if not items:
+        raise ValueError("no recording to diagnose")
+    recs = [r if isinstance(r, Recording) else read(r, kind=kind, pressure_kpa=pressure_kpa) for r in items]
+    prep = pool([prepare(r) for r in recs])
+    model = None
+    if friction:
+        if prep.kind != "ramp":
+            raise ValueError(f"baseline friction can replace Table I only in the ramp baseline, not in {prep.kind}")
+        model = model_for("ramp", ramp_angle_deg=prep.recording.ramp_angle_deg, friction=friction)
+    d = diagnose_prepared(prep, settings=settings, log=log, model=model)
     if out_dir is None:
         from .locate import classify, locate
         from .report import diagnosis_json
@@ -35,6 +52,38 @@ def diagnose(recording, out_dir=None, kind: str | None = None, pressure_kpa: flo
         return d, js
     from .report import write
     return d, write(d, out_dir, drake=drake)
+
+
+def read_friction(path) -> dict:
+    """Majd parameters from a friction fit (roboball's fit JSON: posterior medians) or a plain
+    JSON object {f_w, f_c, sigma, omega_c, n}; a one-line error names the file and what is wrong."""
+    import json
+    from pathlib import Path
+
+    from ..errors import RoboballError
+    from ..physics import friction as friction_laws
+
+    path = Path(path)
+    try:
+        with open(path, encoding="utf-8") as fh:
+            d = json.load(fh)
+    except OSError as exc:
+        raise RoboballError(f"{path}: cannot read the friction parameters ({exc.strerror or exc})")
+    except json.JSONDecodeError as exc:
+        raise RoboballError(f"{path}: not JSON (line {exc.lineno}: {exc.msg})")
+    if isinstance(d, dict) and isinstance(d.get("parameters"), dict):
+        if d.get("law") not in (None, "majd"):
+            raise RoboballError(f"{path}: a fit of the {d.get('law')} law, not Majd's")
+        d = {k: (v.get("median") if isinstance(v, dict) else v) for k, v in d["parameters"].items()}
+    if not isinstance(d, dict):
+        raise RoboballError(f"{path}: expected a JSON object of Majd parameters")
+    out = {}
+    for k in friction_laws.PARAMS["majd"]:
+        v = d.get(k)
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or v != v:
+            raise RoboballError(f"{path}: Majd parameter '{k}' is {'missing' if v is None else repr(v)}, not a number")
+        out[k] = float(v)
+    return out
 
 
 __all__ = ["diagnose"]

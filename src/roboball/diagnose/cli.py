@@ -1,7 +1,12 @@
-"""`roboball diagnose RECORDING.csv --out DIR [--kind KIND] [--pressure-kpa P]`.
+"""`roboball diagnose RECORDING.csv [MORE.csv ...] --out DIR [--kind KIND] [--pressure-kpa P]
+[--friction-steer FIT.json] [--friction-drive FIT.json]`.
 
 Reads one recording (or one of the authors' native logs), diagnoses it against the baseline
 of its kind and writes DIR/diagnosis.json, DIR/report.md (+ figures) and DIR/details.json.
+Several recordings of one experiment (same kind, pressure, ramp angle) are diagnosed together:
+each of their releases is a release of the pooled fit, and held-out validation leaves one out
+(for ramp runs, which hold one descent each, a whole run).  --friction-steer/--friction-drive
+replace the ramp baseline's Table I friction by fitted Majd parameters.
 Exit 0 when a diagnosis was made, whatever it found; a one-line error and a non-zero exit on
 bad input (wrong columns, unknown kind, empty file: roboball.recording's validation).
 """
@@ -32,21 +37,25 @@ def _pressure(text: str) -> float:
 
 
 def cmd_diagnose(args) -> int:
-    from . import diagnose
+    from . import diagnose, read_friction
     from .decide import Settings
 
     t0 = time.perf_counter()
-    if not Path(args.recording).exists():
-        raise RoboballError(f"{args.recording}: file not found")
+    for path in args.recording:
+        if not Path(path).exists():
+            raise RoboballError(f"{path}: file not found")
+    friction = {j: read_friction(f) for j, f in (("steer", args.friction_steer), ("drive", args.friction_drive)) if f}
     log = print if args.verbose else None
+    label = " + ".join(args.recording)
+    recordings = args.recording if len(args.recording) > 1 else args.recording[0]
     try:
-        d, js = diagnose(args.recording, out_dir=args.out, kind=args.kind, pressure_kpa=args.pressure_kpa,
-                         settings=Settings(), drake=not args.no_drake, log=log)
+        d, js = diagnose(recordings, out_dir=args.out, kind=args.kind, pressure_kpa=args.pressure_kpa,
+                         settings=Settings(), drake=not args.no_drake, log=log, friction=friction or None)
     except ValueError as exc:     # e.g. a model that cannot represent the recording's kind
-        raise RoboballError(f"{args.recording}: {exc}")
+        raise RoboballError(f"{label}: {exc}")
     found = ", ".join(m["effect"] for m in js["missing_physics"]) or "nothing missing"
     f = js["fit"]
-    print(f"{args.recording}: {js['verdict']} ({found}); rms {f['rmse_before']:.4g} -> {f['rmse_after']:.4g} "
+    print(f"{label}: {js['verdict']} ({found}); rms {f['rmse_before']:.4g} -> {f['rmse_after']:.4g} "
           f"{f['units']}, held out {f['rmse_heldout_before']:.4g} -> {f['rmse_heldout_after']:.4g}; "
           f"wrote {Path(args.out) / 'diagnosis.json'} in {time.perf_counter() - t0:.1f} s")
     return 0
@@ -55,10 +64,16 @@ def cmd_diagnose(args) -> int:
 @register_command
 def _register(sub):
     p = sub.add_parser("diagnose", help="find the physics a baseline model leaves out of a recording")
-    p.add_argument("recording", help="recording CSV (with its JSON sidecar) or an authors' native log")
+    p.add_argument("recording", nargs="+",
+                   help="recording CSV (with its JSON sidecar) or an authors' native log; several recordings of "
+                        "one experiment (same kind, pressure, ramp angle) are diagnosed together")
     p.add_argument("--out", required=True, help="output folder (diagnosis.json, report.md, figures)")
     p.add_argument("--kind", type=_kind, default=None, help="experiment kind (overrides the sidecar)")
     p.add_argument("--pressure-kpa", type=_pressure, default=None, help="shell pressure (overrides the sidecar)")
+    p.add_argument("--friction-steer", default=None, metavar="FIT.json",
+                   help="ramp baseline: Majd steer friction from a fit (roboball's fit JSON) instead of Table I")
+    p.add_argument("--friction-drive", default=None, metavar="FIT.json",
+                   help="ramp baseline: Majd drive friction from a fit instead of Table I")
     p.add_argument("--no-drake", action="store_true", help="skip the Drake simulations of the report")
     p.add_argument("--verbose", action="store_true", help="print the selection rounds")
     p.set_defaults(func=cmd_diagnose)

@@ -75,6 +75,7 @@ class Window:
     release: Release
     end_reason: str = ""
     start: str = "release"          # "release" (the hand lets go) or "turning point" (first one after it)
+    source: Recording | None = None  # the recording the window was cut from (pooled diagnoses)
 
     @property
     def duration(self) -> float:
@@ -102,9 +103,16 @@ class Prepared:
     def n(self) -> int:
         return sum(w.n for w in self.windows)
 
+    sources: list = field(default_factory=list)   # every pooled recording (the first is `recording`)
+
     @property
     def label(self) -> str:
+        if len(self.sources) > 1:
+            return " + ".join(r.label for r in self.sources)
         return self.recording.label
+
+    def source_of(self, w: Window) -> Recording:
+        return w.source if w.source is not None else self.recording
 
 
 def _end_of_free_response(t, y, rel: Release, t_stop: float, noise: float, q: float) -> tuple[float, str]:
@@ -311,8 +319,48 @@ def prepare(rec: Recording) -> Prepared:
                               release=rel, end_reason=reason, start=start))
     if not windows:
         raise RoboballError(f"{rec.label}: {signal}: no release long enough to diagnose (need 20 samples after a release)")
+    for w in windows:
+        w.source = rec
     return Prepared(recording=rec, kind=kind, signal=signal, unit=unit, windows=windows, noise=noise,
-                    quantum=quantum, notes=notes)
+                    quantum=quantum, notes=notes, sources=[rec])
+
+
+POOL_PRESSURE_TOL_KPA = 0.05
+
+
+def pool(preps: list) -> Prepared:
+    """Several recordings of one experiment diagnosed together: every release of every recording
+    is a release of the pooled fit (its own release state), so held-out validation leaves one
+    release out, a whole recording's at a time.  A ramp run holds a single descent, and the
+    only held-out test inside it is extrapolation across time blocks, where effects that are
+    nearly collinear over one descent (a rolling damping and a rolling resistance) trade off
+    and extrapolate badly; repeated runs give the held-out test the same speed range.  The
+    recordings must share kind, main signal, pressure and ramp angle.  Noise level: the
+    median of the recordings'."""
+    preps = list(preps)
+    if len(preps) == 1:
+        return preps[0]
+    first = preps[0]
+    for p in preps[1:]:
+        where = f"{p.recording.label}: cannot be pooled with {first.recording.label}"
+        if p.kind != first.kind or p.signal != first.signal:
+            raise RoboballError(f"{where}: kind {p.kind} ({p.signal}), not {first.kind} ({first.signal})")
+        pa, pb = p.recording.pressure_kpa, first.recording.pressure_kpa
+        if (pa is None) != (pb is None) or (pa is not None and abs(pa - pb) > POOL_PRESSURE_TOL_KPA):
+            raise RoboballError(f"{where}: pressure {pa} kPa, not {pb} kPa")
+        if first.kind == "ramp" and abs((p.recording.ramp_angle_deg or 0.0) - (first.recording.ramp_angle_deg or 0.0)) > 1e-6:
+            raise RoboballError(f"{where}: ramp angle {p.recording.ramp_angle_deg} deg, not "
+                                f"{first.recording.ramp_angle_deg} deg")
+    windows, notes = [], []
+    for p in preps:
+        for w in p.windows:
+            windows.append(Window(index=len(windows), t0=w.t0, t=w.t, y=w.y, q0=w.q0, release=w.release,
+                                  end_reason=w.end_reason, start=w.start, source=p.recording))
+        notes += [f"{p.recording.label}: {n}" for n in dict.fromkeys(p.notes)]
+    return Prepared(recording=first.recording, kind=first.kind, signal=first.signal, unit=first.unit,
+                    windows=windows, noise=float(np.median([p.noise for p in preps])),
+                    quantum=max(p.quantum for p in preps), notes=notes,
+                    sources=[p.recording for p in preps])
 
 
 def read(path, kind: str | None = None, pressure_kpa: float | None = None) -> Recording:

@@ -470,6 +470,7 @@ def _reordered(sc: Scored, last: str) -> Scored:
                   cv_pred=sc.cv_pred, rho1=sc.rho1, bic=sc.bic, delta_bic=sc.delta_bic)
 
 
-def diagnose_prepared(prep: Prepared, settings: Settings | None = None, log=None) -> Diagnosis:
-    """Run the selection on a prepared recording."""
-    return Selector(prep, settings=settings, log=log).run()
+def diagnose_prepared(prep: Prepared, settings: Settings | None = None, log=None,
+                      model: ReducedModel | None = None) -> Diagnosis:
+    """Run the selection on a prepared recording (against `model`, default: the kind's baseline)."""
+    return Selector(prep, model=model, settings=settings, log=log).run()

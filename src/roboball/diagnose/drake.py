@@ -82,19 +82,22 @@ def drake_spec(prep: Prepared, model: ReducedModel, values: dict, effects, dt: f
     if kind == "shell_rock":
         return SimSpec(kind=kind, contact="point", friction={"steer": "none", "drive": "none"}, dt=dt,
                        pressure_kpa=prep.recording.pressure_kpa, extra_terms=extra)
-    return ramp_spec(prep.recording.pressure_kpa, prep.recording.ramp_angle_deg, extra, dt)
+    return ramp_spec(prep.recording.pressure_kpa, prep.recording.ramp_angle_deg, extra, dt,
+                     friction_params=getattr(model, "friction_params", None))
 
 
-def ramp_spec(pressure_kpa, ramp_angle_deg, extra_terms=(), dt: float | None = None) -> SimSpec:
-    """The ramp baseline of the contract (point contact, Table I Majd friction on both joints)
-    with `extra_terms` (the diagnosed effects) added."""
+def ramp_spec(pressure_kpa, ramp_angle_deg, extra_terms=(), dt: float | None = None,
+              friction_params: dict | None = None) -> SimSpec:
+    """The ramp baseline of the contract (point contact, Majd friction on both joints: Table I,
+    or `friction_params` per joint where given) with `extra_terms` (the diagnosed effects) added."""
     return SimSpec(kind="ramp", contact="point", friction={"steer": "majd", "drive": "majd"},
+                   friction_params={j: dict(p) for j, p in (friction_params or {}).items() if p},
                    dt=dt or DRAKE_DT["ramp"], pressure_kpa=pressure_kpa, ramp_angle_deg=ramp_angle_deg,
                    extra_terms=list(extra_terms))
 
 
-def _level_before(prep: Prepared, column: str, t0: float) -> float:
-    rec = prep.recording
+def _level_before(prep: Prepared, column: str, t0: float, window=None) -> float:
+    rec = prep.source_of(window) if window is not None else prep.recording
     if not rec.has_signal(column):
         return 0.0
     t, y = rec.time, rec.signal(column)
@@ -112,8 +115,8 @@ def simulate_windows(prep: Prepared, model: ReducedModel, values: dict, effects,
         ts = float(values.get(f"ts@{w.index}", 0.0))
         duration = float(w.t[-1] - w.t0 - ts) + 0.05
         if prep.kind == "ramp":
-            release = _level_before(prep, "pipe_angle_rad", w.t0 + ts)
-            steer0 = _level_before(prep, "steer_angle_rad", w.t0 + ts)
+            release = _level_before(prep, "pipe_angle_rad", w.t0 + ts, w)
+            steer0 = _level_before(prep, "steer_angle_rad", w.t0 + ts, w)
         else:
             release = float(values.get(f"q0@{w.index}", w.q0))
             steer0 = 0.0

@@ -97,7 +97,9 @@ def diagnosis_json(d: Diagnosis, located_base, located_final, drake_before=None,
         fit["drake_rmse_after"] = _round(drake_after)
     return {
         "kind": d.prep.kind,
-        "baseline": {"description": d.model.description, "fitted": baseline_fitted(d)},
+        "baseline": {"description": d.model.description, "fitted": baseline_fitted(d),
+                     **({"friction": getattr(d.model, "friction_params")}
+                        if getattr(d.model, "friction_params", None) else {})},
         "verdict": d.verdict,
         "located": located,
         "missing_physics": missing_physics(d),

@@ -1,12 +1,13 @@
 """Diagnosis stages: `roboball diagnose` on recordings of the campaign and the real logs, and the
 diagnosed model of the ramp scored like the paper's three (the fourth bar of Fig. 13/14).
 
-The diagnosed ramp model is the contract's ramp baseline (point contact, Table I Majd friction
-on both joints: ../shared/specs/diagnosis.md) plus the effects the diagnosis found, evaluated as a
-Drake force element (roboball.diagnose.drake.effect_term).  It is scored out of sample: the
-effects and their parameters for one run come from the diagnoses of the OTHER runs at the same
-pressure (the effect set they name most often, each parameter the median over the diagnoses
-that name that set).  Its PME (eq. 12) is computed on the same samples, from the same start, as
+The diagnosed ramp model is the paper's point model as the pipeline calibrates it (point
+contact, the Majd friction fitted on the stand logs on both joints: the contract's ramp baseline
+of ../shared/specs/diagnosis.md with the fitted friction in place of Table I) plus the effects the
+diagnosis found, evaluated as a Drake force element (roboball.diagnose.drake.effect_term).  It is
+scored out of sample: the effects and their parameters for one run come from the pooled
+diagnosis of the OTHER runs at the same pressure (workflow/rules/ramp.smk), whose held-out test
+leaves one whole run out.  Its PME (eq. 12) is computed on the same samples, from the same start, as
 the paper's models (roboball.pipeline.simulation.ramp_window).
 """
 from __future__ import annotations
@@ -24,12 +25,15 @@ from .simulation import pme, ramp_window
 STAGES = ("diagnose_recording", "ramp_diagnosed")
 
 
-def diagnose_recording(recording: str, out_dir: str) -> None:
-    """`roboball diagnose` on one recording (CSV with its sidecar): diagnosis.json, report.md,
-    predictions.csv and the figures in `out_dir`."""
-    from ..diagnose import diagnose
+def diagnose_recording(recording: list, out_dir: str, friction_steer: str = "", friction_drive: str = "") -> None:
+    """`roboball diagnose` on one recording (CSV with its sidecar), or on several recordings of
+    one experiment together: diagnosis.json, report.md, predictions.csv and the figures in
+    `out_dir`.  With fitted friction (the pipeline's Majd fits) the ramp baseline is the paper's
+    point model as the pipeline calibrates it, instead of the contract's Table I friction."""
+    from ..diagnose import diagnose, read_friction
 
-    diagnose(recording, out_dir=out_dir)
+    friction = {j: read_friction(f) for j, f in (("steer", friction_steer), ("drive", friction_drive)) if f}
+    diagnose(recording if len(recording) > 1 else recording[0], out_dir=out_dir, friction=friction or None)
 
 
 def consensus_effects(diagnoses: list) -> dict:
@@ -54,6 +58,19 @@ def consensus_effects(diagnoses: list) -> dict:
     return {e: {p: float(np.median([f[e][p] for f in entries])) for p in entries[0][e]} for e in key}
 
 
+def baseline_friction(diagnoses: list) -> dict:
+    """The joint friction of the diagnoses' ramp baseline ({} = Table I).  The diagnosed model
+    must run on the baseline its effects were fitted against, so the diagnoses must agree."""
+    found = []
+    for path in diagnoses:
+        with open(path, encoding="utf-8") as fh:
+            found.append(json.load(fh).get("baseline", {}).get("friction") or {})
+    if any(f != found[0] for f in found[1:]):
+        raise RoboballError(f"{diagnoses[0]}: the diagnoses were made against different baseline friction; "
+                            "their effects cannot be combined")
+    return found[0] if found else {}
+
+
 def describe(effects: dict) -> str:
     return "; ".join(f"{e}(" + ", ".join(f"{k}={v:.4g}" for k, v in p.items()) + ")" for e, p in effects.items()) \
         or "none"
@@ -73,9 +90,10 @@ def ramp_diagnosed(recording: str, releases: str, diagnoses: list, out_csv: str,
     rec = read_recording(recording)
     tt, w_e, pipe0 = ramp_window(rec, releases)
     effects = consensus_effects(diagnoses)
+    friction = baseline_friction(diagnoses)
     angle = rec.meta.get("ramp_angle_deg")
     term = effect_term(model_for("ramp", ramp_angle_deg=angle), effects)
-    spec = ramp_spec(rec.pressure_kpa, angle, [term] if term is not None else [], dt)
+    spec = ramp_spec(rec.pressure_kpa, angle, [term] if term is not None else [], dt, friction_params=friction)
     df = simulate(spec, pipe0, float(tt[-1]) + 0.05, sample_rate_hz=200.0)
     w_s = np.interp(tt, df.time_s.to_numpy(), df.drive_rate_rad_s.to_numpy())
     row = {"recording": rec.path.stem if rec.path else recording, "pressure_kpa": rec.pressure_kpa,

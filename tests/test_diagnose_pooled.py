@@ -1,0 +1,129 @@
+"""Pooled diagnoses (several recordings of one experiment) and a ramp baseline with calibrated
+friction: what the pipeline's fourth bar of Fig. 13/14 is built from (workflow/rules/ramp.smk).
+
+A ramp run holds a single descent, so the only held-out test inside it is extrapolation over
+time blocks; pooled runs let the held-out test leave a whole run out.  The pipeline diagnoses
+the paper's point model with the Majd friction fitted on the stand logs, and the diagnosed model
+must run on exactly that baseline."""
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from roboball.cli import main as cli_main
+from roboball.diagnose import diagnose, read_friction
+from roboball.diagnose.data import pool, prepare, read
+from roboball.diagnose.decide import Selector
+from roboball.errors import RoboballError
+from roboball.pipeline import diagnosis as D
+from roboball.pipeline.ident import ingest
+
+REPO = Path(__file__).resolve().parents[1]
+RAMP = REPO / "raw_data" / "ramp"
+# Majd drive/steer friction as the pipeline fits it on the test bed's stand logs (posterior
+# medians, results/friction/testbed/*_majd.json, 2026-11-24): a calibrated friction, not Table I.
+FITTED = {"drive": {"f_w": 1.485, "f_c": 1.196, "sigma": 1.102, "omega_c": 0.206, "n": 4.821},
+          "steer": {"f_w": 0.102, "f_c": 0.430, "sigma": 0.301, "omega_c": 0.032, "n": 2.531}}
+
+
+def test_pool_gives_one_release_per_run_and_leaves_one_run_out():
+    preps = [prepare(read(RAMP / f"ramp_20.7kpa_r{r}.csv")) for r in (2, 3)]
+    p = pool(preps)
+    assert [w.index for w in p.windows] == [0, 1]
+    assert [w.source.label for w in p.windows] == [preps[0].recording.label, preps[1].recording.label]
+    assert p.label == f"{preps[0].recording.label} + {preps[1].recording.label}"
+    folds = Selector(p)._folds()
+    # leave one run out: each fold trains on the other run and holds out the whole of this one
+    assert [(sorted(train), held) for train, held, _ in folds] == [([1], 0), ([0], 1)]
+    assert pool(preps[:1]) is preps[0]
+
+
+def test_pool_refuses_recordings_of_different_experiments():
+    a = prepare(read(RAMP / "ramp_20.7kpa_r1.csv"))
+    b = prepare(read(RAMP / "ramp_13.8kpa_r1.csv"))
+    with pytest.raises(RoboballError, match=r"ramp_13.8kpa_r1.*cannot be pooled with.*pressure 13.8 kPa, not 20.7"):
+        pool([a, b])
+    shell = prepare(read(REPO / "raw_data" / "shell_rock" / "shell_rock_20.7kpa_r1.csv"))
+    with pytest.raises(RoboballError, match="kind shell_rock"):
+        pool([a, shell])
+
+
+def test_read_friction_takes_a_fit_or_plain_parameters_and_refuses_the_rest(tmp_path):
+    fit = tmp_path / "fit.json"
+    fit.write_text(json.dumps({"law": "majd", "parameters": {k: {"median": v} for k, v in FITTED["drive"].items()}}))
+    assert read_friction(fit) == FITTED["drive"]
+    plain = tmp_path / "plain.json"
+    plain.write_text(json.dumps(FITTED["steer"]))
+    assert read_friction(plain) == FITTED["steer"]
+    other = tmp_path / "viscous.json"
+    other.write_text(json.dumps({"law": "viscous", "parameters": {"c": {"median": 0.1}}}))
+    with pytest.raises(RoboballError, match="viscous.json: a fit of the viscous law, not Majd's"):
+        read_friction(other)
+    short = tmp_path / "short.json"
+    short.write_text(json.dumps({k: v for k, v in FITTED["drive"].items() if k != "sigma"}))
+    with pytest.raises(RoboballError, match="short.json: Majd parameter 'sigma' is missing"):
+        read_friction(short)
+    broken = tmp_path / "broken.json"
+    broken.write_text("{")
+    with pytest.raises(RoboballError, match="broken.json: not JSON"):
+        read_friction(broken)
+
+
+def test_pooled_ramp_runs_against_fitted_friction_name_the_rolling_damping():
+    """The test bed hides a damping of the shell's rolling in its ramp runs (2.39 N m s/rad at
+    20.7 kPa, with a rolling resistance of 0.93 N m beside it).  Two runs pooled against the
+    calibrated point model name viscous damping on the drive dof; its held-out run is a whole
+    run, and the held-out error falls by far more than 90%."""
+    d, js = diagnose([RAMP / "ramp_20.7kpa_r2.csv", RAMP / "ramp_20.7kpa_r3.csv"], friction=FITTED)
+    effects = {m["effect"]: m for m in js["missing_physics"]}
+    assert "viscous_damping" in effects and effects["viscous_damping"]["dof"] == "drive"
+    assert 2.0 < effects["viscous_damping"]["parameters"]["c"] < 3.2
+    assert js["baseline"]["friction"] == FITTED
+    assert "Majd friction (fitted)" in js["baseline"]["description"]
+    assert len(d.prep.windows) == 2 and len(d.folds) == 2
+    assert js["fit"]["rmse_heldout_after"] < 0.1 * js["fit"]["rmse_heldout_before"]
+
+
+def test_diagnosed_ramp_model_runs_on_its_diagnoses_baseline_friction(tmp_path):
+    """ramp_diagnosed takes the baseline friction from the diagnoses (the effects were fitted on
+    it): the same effects on Table I and on the fitted friction give different descents, and
+    diagnoses made against different friction are refused."""
+    csv, rel = tmp_path / "run.csv", tmp_path / "run.releases.json"
+    ingest(str(RAMP / "ramp_20.7kpa_r1.csv"), str(csv), str(rel), str(tmp_path / "qc.png"))
+    effects = [{"effect": "viscous_damping", "dof": "drive", "parameters": {"c": 2.7}}]
+    table1 = tmp_path / "t1" / "diagnosis.json"
+    fitted = tmp_path / "fit" / "diagnosis.json"
+    for path, baseline in ((table1, {}), (fitted, {"friction": FITTED})):
+        path.parent.mkdir(parents=True)
+        path.write_text(json.dumps({"kind": "ramp", "verdict": "augmented", "baseline": baseline,
+                                    "missing_physics": effects}))
+    assert D.baseline_friction([str(fitted)]) == FITTED and D.baseline_friction([str(table1)]) == {}
+    with pytest.raises(RoboballError, match="different baseline friction"):
+        D.baseline_friction([str(fitted), str(table1)])
+    D.ramp_diagnosed(str(csv), str(rel), [str(table1)], str(tmp_path / "t1.csv"), str(tmp_path / "t1.trace.csv"))
+    D.ramp_diagnosed(str(csv), str(rel), [str(fitted)], str(tmp_path / "fit.csv"), str(tmp_path / "fit.trace.csv"))
+    w1 = pd.read_csv(tmp_path / "t1.trace.csv").drive_rate_sim_rad_s.to_numpy()
+    w2 = pd.read_csv(tmp_path / "fit.trace.csv").drive_rate_sim_rad_s.to_numpy()
+    assert np.max(np.abs(w1 - w2)) > 0.05
+    # calibrated friction + the damping found: within 2% of the recording (Table I's is not the baseline here)
+    assert abs(pd.read_csv(tmp_path / "fit.csv").pme_percent.iloc[0]) < 2.0
+
+
+def test_cli_diagnoses_several_recordings_with_fitted_friction(tmp_path, capsys):
+    fit = tmp_path / "drive.json"
+    fit.write_text(json.dumps(FITTED["drive"]))
+    a, b = RAMP / "ramp_17.2kpa_r1.csv", RAMP / "ramp_17.2kpa_r2.csv"
+    out = tmp_path / "o"
+    assert cli_main(["diagnose", str(a), str(b), "--out", str(out), "--friction-drive", str(fit), "--no-drake"]) == 0
+    line = capsys.readouterr().out.strip().splitlines()[-1]
+    assert f"{a} + {b}:" in line
+    js = json.loads((out / "diagnosis.json").read_text())
+    assert js["baseline"]["friction"] == {"drive": FITTED["drive"]}
+    assert "release_2_s" in js["baseline"]["fitted"]
+    # a recording of another pressure is refused in one line
+    c = RAMP / "ramp_6.9kpa_r1.csv"
+    assert cli_main(["diagnose", str(a), str(c), "--out", str(tmp_path / "x")]) != 0
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "cannot be pooled" in err
