@@ -9,8 +9,9 @@ applied-generalised-force port.  Diagram, read top to bottom:
                                    |  state  ----------------^
                                    +--> VectorLogSink (sampled recording)
 
-Output ports are not sampled (`use_sampled_output_ports=False`): the plant evaluates them from
-the current state when asked, and only the state port is read.
+Output ports are not sampled (`use_sampled_output_ports=False`, `SimSpec.sampled_output_ports`):
+the plant evaluates them from the current state when asked, and only the state port is read.
+The virtual test bed keeps Drake's sampled ports (its campaign is the experiment).
 
 Discrete contact approximation: `lagged` (Drake's default), chosen on purpose.  The paper's
 eq. 11 specifies a Hunt-Crossley dissipation (s/m).  `lagged` and `similar` honour Hunt-Crossley
@@ -42,7 +43,6 @@ from .forces import InjectedShell, JointFriction, StateLayout, build_force_syste
 KINDS = ("steer_stand", "drive_stand", "shell_rock", "ramp", "free")
 CONTACTS = ("point", "injected", "hydroelastic")
 APPROXIMATION = "lagged"
-SAMPLED_OUTPUT_PORTS = False      # see build(); tests compare both settings
 
 # Per scenario: joints emitted as fixed, tree root, whether the root is welded (stand).
 _LAYOUT = {
@@ -96,6 +96,12 @@ class SimSpec:
     # as an input, instead of fixed K, C; hydroelastic schedules are run by pressure.simulate_schedule.
     pressure_schedule: object = None
     shell_laws: object = None
+    # Drake's sampled output ports (its default) or outputs computed on demand (ours, see build()).
+    # With only stateless force systems in the loop (every model here) the two give bit-identical
+    # runs; with a discrete-state system beside the plant (the test bed's LuGre friction) they
+    # differ by the step at which that system sees the plant's state, so the virtual test bed
+    # keeps Drake's default and its campaign regenerates bit-for-bit.
+    sampled_output_ports: bool = False
 
     def resolved_robot(self) -> RobotFacts:
         return self.robot if self.robot is not None else load_robot()
@@ -232,9 +238,9 @@ def build(spec: SimSpec, sample_period: float | None = None, meshcat=None) -> Bu
         # Outputs computed from the current state on demand, not sampled at every step: with
         # sampled ports (Drake's default) the plant computes and stores its contact results,
         # reaction forces and every other output port each step although only the state port is
-        # read here.  Trajectories are bit-identical (tests/test_drake_physics.py); a ramp
-        # step costs about 2.4x less (benchmarks/sim_speed.py).
-        use_sampled_output_ports=SAMPLED_OUTPUT_PORTS,
+        # read here.  With the models' stateless force systems trajectories are bit-identical
+        # (tests/test_drake_physics.py); a ramp step costs about 2.4x less (benchmarks/sim_speed.py).
+        use_sampled_output_ports=spec.sampled_output_ports,
         discrete_contact_approximation=spec.approximation,
         contact_model="hydroelastic_with_fallback" if spec.contact == "hydroelastic" else "point",
     )
