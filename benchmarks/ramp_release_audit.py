@@ -42,8 +42,11 @@ def main():
         t_det = json.loads(rel.read_text())["releases"][0]["t_release_s"]
         t_true = ramp_release_s(job["file"], truth)
         err = t_det - t_true
-        details = res / "diagnose" / stem / "details.json"
-        ts = json.loads(details.read_text())["final_values"].get("ts@0") if details.is_file() else None
+        # the pooled diagnosis at the run's pressure holds one release per run, in sorted run order
+        group = res / "diagnose" / "pressure" / f"ramp_{job['pressure_kpa']:g}kpa" / "details.json"
+        same = sorted(Path(j["file"]).stem for j in jobs(truth)
+                      if j["kind"] == "ramp" and j["pressure_kpa"] == job["pressure_kpa"])
+        ts = json.loads(group.read_text())["final_values"].get(f"ts@{same.index(stem)}") if group.is_file() else None
         row = {"run": stem, "pressure_kpa": job["pressure_kpa"], "detected_minus_true_ms": 1e3 * err,
                "diagnosis_ts_ms": None if ts is None else 1e3 * ts}
         for contact in CONTACTS:
