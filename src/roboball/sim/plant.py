@@ -13,12 +13,23 @@ Output ports are not sampled (`use_sampled_output_ports=False`, `SimSpec.sampled
 the plant evaluates them from the current state when asked, and only the state port is read.
 The virtual test bed keeps Drake's sampled ports (its campaign is the experiment).
 
-Discrete contact approximation: `lagged` (Drake's default), chosen on purpose.  The paper's
-eq. 11 specifies a Hunt-Crossley dissipation (s/m).  `lagged` and `similar` honour Hunt-Crossley
-dissipation for both point and hydroelastic contact; `sap` ignores it and uses a relaxation
-time instead (drake-notes.md: a hydroelastic ball on 16 deg rolls at 3.98 rad/s under sap vs
-9.03 under lagged/similar; rigid analytic 10.9).  `tests/test_contact_approximation.py`
-checks that the choice is in force and that the Hunt-Crossley value changes the result.
+Discrete contact approximations, chosen on purpose (`approximation_for`):
+
+* point and injected contact: `lagged` (Drake's default).  The paper's eq. 11 specifies a
+  Hunt-Crossley dissipation (s/m); `lagged` and `similar` honour it for point and hydroelastic
+  contact, `sap` ignores it and uses a relaxation time instead (drake-notes.md: a hydroelastic
+  ball on 16 deg rolls at 3.98 rad/s under sap vs 9.03 under lagged/similar; rigid analytic 10.9).
+* hydroelastic contact: `tamsi`, which honours the same Hunt-Crossley dissipation and, for this
+  robot, gives the same hydroelastic model as `lagged`: converged ramp descents (0.25 ms) agree to
+  0.01% PME, the locked-steer shell tests to 0.1% in zeta and 0.00% in omega_n, and at the
+  pipeline's 1 ms step the two are within 0.1% PME of each other.  TAMSI solves the small
+  problem of this robot (8 dofs, ~20 contact polygons) about 3x faster: a hydroelastic ramp
+  descent at 1 ms runs at ~18x real time instead of ~6x (benchmarks/hydro_speed_options.py).
+  Drake has deprecated TAMSI (removal announced for after 2026-09-01; drake 1.51.1, the last
+  release for Python 3.11, still has it): where it is gone, hydroelastic runs fall back to
+  `lagged` with a warning, and the results move by < 0.1%.
+  `tests/test_contact_approximation.py` checks the choices, the Hunt-Crossley dependence under
+  both, the equivalence and the fallback.  The virtual test bed keeps `lagged` everywhere.
 """
 from __future__ import annotations
 
@@ -42,7 +53,36 @@ from .forces import InjectedShell, JointFriction, StateLayout, build_force_syste
 
 KINDS = ("steer_stand", "drive_stand", "shell_rock", "ramp", "free")
 CONTACTS = ("point", "injected", "hydroelastic")
-APPROXIMATION = "lagged"
+APPROXIMATION = "lagged"            # point and injected contact
+HYDRO_APPROXIMATION = "tamsi"       # hydroelastic contact (falls back to APPROXIMATION where Drake lacks it)
+_AVAILABLE: dict = {}
+
+
+def approximation_available(name: str) -> bool:
+    """Whether this Drake build offers the discrete contact approximation `name`."""
+    if name not in _AVAILABLE:
+        import warnings
+
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                AddMultibodyPlant(MultibodyPlantConfig(time_step=1e-3, discrete_contact_approximation=name),
+                                  DiagramBuilder())
+            _AVAILABLE[name] = True
+        except (RuntimeError, ValueError):
+            _AVAILABLE[name] = False
+    return _AVAILABLE[name]
+
+
+def approximation_for(contact: str) -> str:
+    """The discrete contact approximation of a contact model (see the module docstring)."""
+    if contact == "hydroelastic":
+        if approximation_available(HYDRO_APPROXIMATION):
+            return HYDRO_APPROXIMATION
+        import warnings
+        warnings.warn(f"this Drake has no '{HYDRO_APPROXIMATION}' contact approximation: hydroelastic runs use "
+                      f"'{APPROXIMATION}' (same model, results within 0.1%, about 3x slower)", stacklevel=2)
+    return APPROXIMATION
 
 # Per scenario: joints emitted as fixed, tree root, whether the root is welded (stand).
 _LAYOUT = {
@@ -85,7 +125,7 @@ class SimSpec:
     ramp_angle_deg: float | None = None
     extra_terms: list = field(default_factory=list)       # additional ForceTerms (diagnosis)
     lock_joints: tuple = ()                               # extra joints emitted as fixed
-    approximation: str = APPROXIMATION                    # discrete contact approximation
+    approximation: str | None = None                      # discrete contact approximation (None: approximation_for)
     extra_systems: list = field(default_factory=list)     # fn(layout, dt) -> System: state in, tau out
     resolution_hint: float | None = None                  # override the hydroelastic mesh hint (m)
     ramp_length_m: float | None = None                    # finite ramp ending on a flat floor
@@ -241,7 +281,7 @@ def build(spec: SimSpec, sample_period: float | None = None, meshcat=None) -> Bu
         # read here.  With the models' stateless force systems trajectories are bit-identical
         # (tests/test_drake_physics.py); a ramp step costs about 2.4x less (benchmarks/sim_speed.py).
         use_sampled_output_ports=spec.sampled_output_ports,
-        discrete_contact_approximation=spec.approximation,
+        discrete_contact_approximation=spec.approximation or approximation_for(spec.contact),
         contact_model="hydroelastic_with_fallback" if spec.contact == "hydroelastic" else "point",
     )
     plant, scene_graph = AddMultibodyPlant(cfg, builder)

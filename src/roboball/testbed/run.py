@@ -53,7 +53,8 @@ def truth_spec(kind: str, p_kpa: float | None, truth: dict, extras=ALL_EXTRAS,
     return SimSpec(kind=kind, contact=contact, friction=friction, friction_params=friction_params,
                    pressure_kpa=p_kpa, shell=shell, dt=dt, extra_terms=terms, extra_systems=systems, robot=robot,
                    resolution_hint=sim["hydro_resolution_hint_m"], ramp_length_m=ramp_length_m,
-                   sampled_output_ports=True)   # Drake's default: the campaign as it was recorded
+                   sampled_output_ports=True,   # Drake's default: the campaign as it was recorded
+                   approximation="lagged")
 
 
 def run_free(kind: str, release: float, duration: float, p_kpa=None, truth=None, extras=ALL_EXTRAS,
