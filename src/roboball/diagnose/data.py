@@ -98,12 +98,11 @@ class Prepared:
     noise: float
     quantum: float
     notes: list = field(default_factory=list)
+    sources: list = field(default_factory=list)   # every pooled recording (the first is `recording`)
 
     @property
     def n(self) -> int:
         return sum(w.n for w in self.windows)
-
-    sources: list = field(default_factory=list)   # every pooled recording (the first is `recording`)
 
     @property
     def label(self) -> str:

@@ -152,6 +152,9 @@ def fig11(sweep: str, points: str, out_png: str, out_table: str, out_md: str, ca
     write_text_atomic(out_md, "\n".join(lines) + "\n")
 
 
+DETAIL_PERCENT = 5.0
+
+
 def fig13_14(summary: str, out13: str, out14: str, out_csv: str, out_md: str) -> None:
     """Fig. 13 (PME per pressure and model, spread over runs, posterior intervals) and Fig. 14
     (averaged over pressures); the PME table as CSV and Markdown."""
@@ -167,23 +170,33 @@ def fig13_14(summary: str, out13: str, out14: str, out_csv: str, out_md: str) ->
         agg = agg.merge(d, on=["contact", "pressure_kpa"], how="left")
     write_csv_atomic(agg, out_csv)
     pressures = sorted(s.pressure_kpa.unique())
-    fig, ax = plt.subplots(figsize=(9, 4.5))
+    # Two panels: every model, and below it the models within DETAIL_PERCENT of the recording,
+    # whose differences (a few tenths of a percent) the full scale hides.
+    fig, (ax, ax_d) = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True, gridspec_kw={"height_ratios": [2, 1.2]})
     w = 0.8 / len(contacts)
-    for k, c in enumerate(contacts):
-        a = agg[agg.contact == c].set_index("pressure_kpa").reindex(pressures)
-        x = np.arange(len(pressures)) + (k - (len(contacts) - 1) / 2) * w
-        ax.bar(x, a.pme_mean_percent, w * 0.9, color=CONTACT_COLOURS[c], label=c, alpha=0.85)
-        runs = s[s.contact == c]
-        for i, p in enumerate(pressures):
-            r = runs[runs.pressure_kpa == p]
-            ax.plot(np.full(len(r), x[i]), r.pme_percent, "k.", ms=4)
-            if "pme_draw_low" in r and r.pme_draw_low.notna().any():
-                ax.errorbar(x[i], a.pme_mean_percent.iloc[i],
-                            yerr=[[a.pme_mean_percent.iloc[i] - r.pme_draw_low.min()], [r.pme_draw_high.max() - a.pme_mean_percent.iloc[i]]],
-                            color="k", capsize=3, lw=1)
-    ax.axhline(0, color="k", lw=0.8)
-    ax.set_xticks(np.arange(len(pressures)), [f"{p:g}" for p in pressures])
-    ax.set_xlabel("shell pressure (kPa)")
+    for axis in (ax, ax_d):
+        for k, c in enumerate(contacts):
+            a = agg[agg.contact == c].set_index("pressure_kpa").reindex(pressures)
+            x = np.arange(len(pressures)) + (k - (len(contacts) - 1) / 2) * w
+            axis.bar(x, a.pme_mean_percent, w * 0.9, color=CONTACT_COLOURS[c], label=c, alpha=0.85)
+            runs = s[s.contact == c]
+            for i, p in enumerate(pressures):
+                r = runs[runs.pressure_kpa == p]
+                axis.plot(np.full(len(r), x[i]), r.pme_percent, "k.", ms=4)
+                if "pme_draw_low" in r and r.pme_draw_low.notna().any():
+                    axis.errorbar(x[i], a.pme_mean_percent.iloc[i],
+                                  yerr=[[a.pme_mean_percent.iloc[i] - r.pme_draw_low.min()],
+                                        [r.pme_draw_high.max() - a.pme_mean_percent.iloc[i]]],
+                                  color="k", capsize=3, lw=1)
+        axis.axhline(0, color="k", lw=0.8)
+    small = s.pme_percent[s.pme_percent.abs() <= DETAIL_PERCENT]
+    lim = max(1.0, 1.25 * float(small.abs().max())) if len(small) else DETAIL_PERCENT
+    ax_d.set_ylim(-lim, lim)
+    ax_d.set_ylabel("detail (%)")
+    ax_d.text(0.01, 0.96, f"detail: the same bars, models within {DETAIL_PERCENT:g}% of the recording",
+              transform=ax_d.transAxes, va="top", fontsize=8, color="0.3")
+    ax_d.set_xticks(np.arange(len(pressures)), [f"{p:g}" for p in pressures])
+    ax_d.set_xlabel("shell pressure (kPa)")
     ax.set_ylabel("drive-speed PME (%)  [+ = model too fast]")
     ax.set_title("Fig. 13: drive-speed error per pressure")
     ax.text(0.01, 0.98, "bars: mean of runs   dots: runs   whiskers: 95% over friction-posterior draws",
@@ -209,10 +222,10 @@ def fig13_14(summary: str, out13: str, out14: str, out_csv: str, out_md: str) ->
     for r in agg.itertuples():
         post = (f"[{r.pme_post_low_percent:.1f}, {r.pme_post_high_percent:.1f}]"
                 if hasattr(r, "pme_post_low_percent") and np.isfinite(r.pme_post_low_percent) else "-")
-        lines.append(f"| {r.contact} | {r.pressure_kpa:g} | {r.runs} | {r.pme_mean_percent:.1f} | "
-                     f"{r.pme_min_percent:.1f} | {r.pme_max_percent:.1f} | {post} |")
+        lines.append(f"| {r.contact} | {r.pressure_kpa:g} | {r.runs} | {r.pme_mean_percent:.2f} | "
+                     f"{r.pme_min_percent:.2f} | {r.pme_max_percent:.2f} | {post} |")
     lines += ["", "| contact | mean PME over all runs (%) |", "|---|---|"]
-    lines += [f"| {c} | {m[c]:.1f} |" for c in contacts]
+    lines += [f"| {c} | {m[c]:.2f} |" for c in contacts]
     write_text_atomic(out_md, "\n".join(lines) + "\n")
 
 
