@@ -213,6 +213,12 @@ def fig13_14(summary: str, out13: str, out14: str, out_csv: str, out_md: str) ->
         if "pme_draw_low" in r and r.pme_draw_low.notna().any():
             ax.errorbar(i, m[c], yerr=[[m[c] - r.pme_draw_low.mean()], [r.pme_draw_high.mean() - m[c]]], color="k", capsize=4)
     ax.axhline(0, color="k", lw=0.8)
+    span = float(np.nanmax(np.abs(s.pme_percent))) if len(s) else 1.0
+    for i, c in enumerate(contacts):      # the mean written on each bar: small bars are invisible at this scale
+        ax.annotate(f"{m[c]:+.2f}%", (i, max(m[c], 0.0)), xytext=(0, 4), textcoords="offset points",
+                    ha="center", va="bottom", fontsize=9,
+                    bbox=dict(boxstyle="round,pad=0.15", fc="white", ec="none", alpha=0.8))
+    ax.set_ylim(top=1.12 * span)
     ax.set_xticks(range(len(contacts)), contacts)
     ax.set_ylabel("drive-speed PME averaged over pressures (%)")
     ax.set_title("Fig. 14: averaged drive speed error")
