@@ -176,13 +176,13 @@ def test_pipeline_figures_go_through_scratch_files_named_tmp(tmp_path, monkeypat
     hidden figure (the kill-and-resume test found `.fig.png.x1y2.png` left by the old saver)."""
     import matplotlib.pyplot as plt
 
-    from roboball.pipeline import figures
+    from roboball.pipeline import plotting
 
     real_replace, scratch = os.replace, []
     monkeypatch.setattr(os, "replace", lambda src, dst: (scratch.append(Path(src).name), real_replace(src, dst)))
     fig, ax = plt.subplots()
     ax.plot([0, 1], [0, 1])
-    figures.save(fig, tmp_path / "fig99_test.png")
+    plotting.save(fig, tmp_path / "fig99_test.png")
     assert len(scratch) == 2 and all(n.startswith(".fig99_test.") and n.endswith(".tmp") for n in scratch), scratch
     assert sorted(p.name for p in tmp_path.iterdir()) == ["fig99_test.pdf", "fig99_test.png"]
     assert (tmp_path / "fig99_test.pdf").read_bytes()[:4] == b"%PDF"

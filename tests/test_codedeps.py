@@ -45,6 +45,16 @@ def test_closures_follow_imports_including_those_inside_functions():
         C.stage_module("no-such")
 
 
+def test_editing_a_paper_figure_does_not_touch_the_stages_before_it():
+    """The ingest stage draws a QC plot with the shared plotting module, not with the paper
+    figures' module: an edit of Fig. 13 must not rerun ingest (and with it every job)."""
+    figures = "roboball.pipeline.figures"
+    for stage in ("ingest", "decay", "friction-fit", "ramp-sim", "diagnose-recording", "deflating-ramp", "table1"):
+        assert figures not in C.closure(C.stage_module(stage)), stage
+    assert "roboball.pipeline.plotting" in C.closure(C.stage_module("ingest"))
+    assert figures in C.closure(C.stage_module("fig13-14"))
+
+
 def test_fingerprints_change_with_what_the_stage_runs_and_nothing_else(tmp_path):
     root = tmp_path / "roboball"
     shutil.copytree(C.PACKAGE_ROOT, root, ignore=shutil.ignore_patterns("__pycache__"))

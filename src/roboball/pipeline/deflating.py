@@ -47,7 +47,7 @@ def run_cases(laws, schedule, contacts=("injected", "hydroelastic"), duration: f
 
 def plot(table: pd.DataFrame, schedule, out_png: str) -> None:
     """Fig. S1: pressure (top) and drive rate (bottom) of every case; PNG + PDF."""
-    from .figures import CONTACT_COLOURS, plt, save
+    from .plotting import CONTACT_COLOURS, plt, save
 
     styles = {"schedule": "-"}
     cases = list(dict.fromkeys(table.case))

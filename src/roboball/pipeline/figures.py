@@ -4,53 +4,15 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
+import numpy as np
+import pandas as pd
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
-
-from ..atomic import savefig_atomic, write_csv_atomic, write_text_atomic  # noqa: E402
+from ..atomic import write_csv_atomic, write_text_atomic
+# The style, the atomic saver and the ingest QC plot live in .plotting, so that editing a figure
+# here reruns the figure rules only (the ingest stage imports .plotting, not this module).
+from .plotting import CONTACT_COLOURS, plt, save
 
 STAGES = ("fig10", "fig11", "fig13_14", "table2")
-CONTACT_COLOURS = {"point": "#7f7f7f", "injected": "#1f77b4", "hydroelastic": "#d62728", "diagnosed": "#2ca02c"}
-plt.rcParams.update({"font.size": 10, "axes.grid": True, "grid.alpha": 0.3, "savefig.dpi": 150,
-                     "pdf.fonttype": 42, "svg.hashsalt": "roboball", "figure.constrained_layout.use": True})
-_META = {"png": {"Software": None}, "pdf": {"CreationDate": None, "Producer": None, "Creator": None}}
-
-
-def save(fig, path: str | Path) -> None:
-    """Save `fig` to path (and its PDF twin when path ends in .png), atomically, no timestamps."""
-    path = Path(path)
-    targets = [path] + ([path.with_suffix(".pdf")] if path.suffix == ".png" else [])
-    for target in targets:
-        # Through the shared atomic writer: its scratch file ends in .tmp, so a killed run
-        # never leaves a hidden file that looks like a figure.
-        fmt = target.suffix[1:]
-        savefig_atomic(fig, target, format=fmt, metadata=_META.get(fmt))
-    plt.close(fig)
-
-
-def qc_plot(rec, releases, path) -> None:
-    """Whole recording with each release marked (hand phase shaded, release instant, free response)."""
-    sig = rec.main_signal()
-    unit = "rad/s" if sig.endswith("_rad_s") else "rad"
-    fig, ax = plt.subplots(figsize=(9, 3.2))
-    ax.plot(rec.time, rec.signal(sig), lw=0.8, color="k", label=sig)
-    for i, r in enumerate(releases):
-        ax.axvspan(r.held_from_s, r.t_release_s, color="orange", alpha=0.25, label="hand hold" if i == 0 else None)
-        ax.axvspan(r.t_release_s, r.t_end_s, color="tab:blue", alpha=0.08, label="free response" if i == 0 else None)
-        ax.axvline(r.t_release_s, color="tab:red", lw=1, label="release" if i == 0 else None)
-    if rec.meta.get("ramp_exit_s"):
-        ax.axvline(rec.meta["ramp_exit_s"], color="tab:purple", ls="--", label="leaves ramp")
-    ax.set_xlabel("time (s)")
-    ax.set_ylabel(f"{sig.rsplit('_', 1)[0] if unit == 'rad' else sig[:-6]} ({unit})")
-    p = rec.pressure_kpa
-    ax.set_title(f"QC: {Path(str(rec.path)).stem} ({rec.kind}{'' if p is None else f', {p:g} kPa'}): "
-                 f"{len(releases)} release(s)")
-    ax.legend(loc="upper right", fontsize=8)
-    save(fig, path)
 
 
 def _reg(table):
@@ -155,6 +117,13 @@ def fig11(sweep: str, points: str, out_png: str, out_table: str, out_md: str, ca
 DETAIL_PERCENT = 5.0
 
 
+def _range_whisker(ax, x, low, high, capsize):
+    """A whisker from `low` to `high` (the 95% range over friction-posterior draws), drawn on its
+    own: the bar is the mean over runs of the posterior-median PME, which need not lie inside the
+    range of a few draws."""
+    ax.errorbar(x, 0.5 * (low + high), yerr=0.5 * abs(high - low), fmt="none", ecolor="k", capsize=capsize, lw=1)
+
+
 def fig13_14(summary: str, out13: str, out14: str, out_csv: str, out_md: str) -> None:
     """Fig. 13 (PME per pressure and model, spread over runs, posterior intervals) and Fig. 14
     (averaged over pressures); the PME table as CSV and Markdown."""
@@ -184,10 +153,7 @@ def fig13_14(summary: str, out13: str, out14: str, out_csv: str, out_md: str) ->
                 r = runs[runs.pressure_kpa == p]
                 axis.plot(np.full(len(r), x[i]), r.pme_percent, "k.", ms=4)
                 if "pme_draw_low" in r and r.pme_draw_low.notna().any():
-                    axis.errorbar(x[i], a.pme_mean_percent.iloc[i],
-                                  yerr=[[a.pme_mean_percent.iloc[i] - r.pme_draw_low.min()],
-                                        [r.pme_draw_high.max() - a.pme_mean_percent.iloc[i]]],
-                                  color="k", capsize=3, lw=1)
+                    _range_whisker(axis, x[i], r.pme_draw_low.min(), r.pme_draw_high.max(), capsize=3)
         axis.axhline(0, color="k", lw=0.8)
     small = s.pme_percent[s.pme_percent.abs() <= DETAIL_PERCENT]
     lim = max(1.0, 1.25 * float(small.abs().max())) if len(small) else DETAIL_PERCENT
@@ -211,7 +177,7 @@ def fig13_14(summary: str, out13: str, out14: str, out_csv: str, out_md: str) ->
         r = s[s.contact == c]
         ax.plot(np.full(len(r), i), r.pme_percent, "k.", ms=4)
         if "pme_draw_low" in r and r.pme_draw_low.notna().any():
-            ax.errorbar(i, m[c], yerr=[[m[c] - r.pme_draw_low.mean()], [r.pme_draw_high.mean() - m[c]]], color="k", capsize=4)
+            _range_whisker(ax, i, r.pme_draw_low.mean(), r.pme_draw_high.mean(), capsize=4)
     ax.axhline(0, color="k", lw=0.8)
     span = float(np.nanmax(np.abs(s.pme_percent))) if len(s) else 1.0
     for i, c in enumerate(contacts):      # the mean written on each bar: small bars are invisible at this scale

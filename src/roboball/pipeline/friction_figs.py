@@ -11,7 +11,7 @@ import pandas as pd
 
 from ..atomic import write_csv_atomic, write_text_atomic
 from ..physics import friction
-from .figures import plt, save
+from .plotting import plt, save
 
 STAGES = ("fig5", "fig_stand_fits", "table1", "corner_plot")
 LAW_COLOURS = {"viscous": "#1f77b4", "coulomb_viscous": "#ff7f0e", "majd": "#2ca02c"}

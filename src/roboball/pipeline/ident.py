@@ -44,7 +44,7 @@ def ingest(src: str, out_csv: str, out_releases: str, qc_png: str, kind: str = "
     write_recording(out_csv, rec)
     write_json_atomic(out_releases, {"source": str(src), "kind": rec.kind, "pressure_kpa": rec.pressure_kpa,
                                      "signal": rec.main_signal(), "releases": [r.as_dict() for r in rels]})
-    from .figures import qc_plot
+    from .plotting import qc_plot
     qc_plot(rec, rels, qc_png)
 
 
