@@ -13,6 +13,8 @@ figures), cli (`roboball diagnose`).  The effect library itself is roboball.phys
 """
 from __future__ import annotations
 
+from ..identify.results import read_friction, read_joint_friction  # noqa: F401  (the CLI's and the pipeline's reader)
+
 
 def diagnose(recording, out_dir=None, kind: str | None = None, pressure_kpa: float | None = None,
              settings=None, drake: bool = True, log=None, friction: dict | None = None):
@@ -54,36 +56,4 @@ def diagnose(recording, out_dir=None, kind: str | None = None, pressure_kpa: flo
     return d, write(d, out_dir, drake=drake)
 
 
-def read_friction(path) -> dict:
-    """Majd parameters from a friction fit (roboball's fit JSON: posterior medians) or a plain
-    JSON object {f_w, f_c, sigma, omega_c, n}; a one-line error names the file and what is wrong."""
-    import json
-    from pathlib import Path
-
-    from ..errors import RoboballError
-    from ..physics import friction as friction_laws
-
-    path = Path(path)
-    try:
-        with open(path, encoding="utf-8") as fh:
-            d = json.load(fh)
-    except OSError as exc:
-        raise RoboballError(f"{path}: cannot read the friction parameters ({exc.strerror or exc})")
-    except json.JSONDecodeError as exc:
-        raise RoboballError(f"{path}: not JSON (line {exc.lineno}: {exc.msg})")
-    if isinstance(d, dict) and isinstance(d.get("parameters"), dict):
-        if d.get("law") not in (None, "majd"):
-            raise RoboballError(f"{path}: a fit of the {d.get('law')} law, not Majd's")
-        d = {k: (v.get("median") if isinstance(v, dict) else v) for k, v in d["parameters"].items()}
-    if not isinstance(d, dict):
-        raise RoboballError(f"{path}: expected a JSON object of Majd parameters")
-    out = {}
-    for k in friction_laws.PARAMS["majd"]:
-        v = d.get(k)
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or v != v:
-            raise RoboballError(f"{path}: Majd parameter '{k}' is {'missing' if v is None else repr(v)}, not a number")
-        out[k] = float(v)
-    return out
-
-
-__all__ = ["diagnose"]
+__all__ = ["diagnose", "read_friction", "read_joint_friction"]

@@ -37,19 +37,18 @@ def _pressure(text: str) -> float:
 
 
 def cmd_diagnose(args) -> int:
-    from . import diagnose, read_friction
+    from . import diagnose, read_joint_friction
     from .decide import Settings
 
     t0 = time.perf_counter()
     for path in args.recording:
         if not Path(path).exists():
             raise RoboballError(f"{path}: file not found")
-    friction = {j: read_friction(f) for j, f in (("steer", args.friction_steer), ("drive", args.friction_drive)) if f}
+    friction = read_joint_friction(args.friction_steer, args.friction_drive)
     log = print if args.verbose else None
     label = " + ".join(args.recording)
-    recordings = args.recording if len(args.recording) > 1 else args.recording[0]
     try:
-        d, js = diagnose(recordings, out_dir=args.out, kind=args.kind, pressure_kpa=args.pressure_kpa,
+        d, js = diagnose(args.recording, out_dir=args.out, kind=args.kind, pressure_kpa=args.pressure_kpa,
                          settings=Settings(), drake=not args.no_drake, log=log, friction=friction or None)
     except ValueError as exc:     # e.g. a model that cannot represent the recording's kind
         raise RoboballError(f"{label}: {exc}")

@@ -315,11 +315,9 @@ def prepare(rec: Recording) -> Prepared:
             notes.append(f"release {i + 1}: the drive rate after the release is averaged over +-{RAMP_SMOOTH_S:g} s "
                          "(the diagnosis fits the descent's trend, not a contact bounce)")
         windows.append(Window(index=len(windows), t0=t0, t=t[sel], y=yw, q0=q0,
-                              release=rel, end_reason=reason, start=start))
+                              release=rel, end_reason=reason, start=start, source=rec))
     if not windows:
         raise RoboballError(f"{rec.label}: {signal}: no release long enough to diagnose (need 20 samples after a release)")
-    for w in windows:
-        w.source = rec
     return Prepared(recording=rec, kind=kind, signal=signal, unit=unit, windows=windows, noise=noise,
                     quantum=quantum, notes=notes, sources=[rec])
 

@@ -96,8 +96,9 @@ def ramp_spec(pressure_kpa, ramp_angle_deg, extra_terms=(), dt: float | None = N
                    extra_terms=list(extra_terms))
 
 
-def _level_before(prep: Prepared, column: str, t0: float, window=None) -> float:
-    rec = prep.source_of(window) if window is not None else prep.recording
+def _level_before(prep: Prepared, window, column: str, t0: float) -> float:
+    """Median of `column` over the 0.25 s before t0 in the recording `window` was cut from."""
+    rec = prep.source_of(window)
     if not rec.has_signal(column):
         return 0.0
     t, y = rec.time, rec.signal(column)
@@ -115,8 +116,8 @@ def simulate_windows(prep: Prepared, model: ReducedModel, values: dict, effects,
         ts = float(values.get(f"ts@{w.index}", 0.0))
         duration = float(w.t[-1] - w.t0 - ts) + 0.05
         if prep.kind == "ramp":
-            release = _level_before(prep, "pipe_angle_rad", w.t0 + ts, w)
-            steer0 = _level_before(prep, "steer_angle_rad", w.t0 + ts, w)
+            release = _level_before(prep, w, "pipe_angle_rad", w.t0 + ts)
+            steer0 = _level_before(prep, w, "steer_angle_rad", w.t0 + ts)
         else:
             release = float(values.get(f"q0@{w.index}", w.q0))
             steer0 = 0.0

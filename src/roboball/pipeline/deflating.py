@@ -85,7 +85,7 @@ def deflating_ramp(regression: str, out_png: str, out_csv: str = "", schedule_cs
     pressure and while deflating (the schedule CSV, else the time/pressure lists, else linearly
     from p_start to p_end over the run)."""
     from ..sim.pressure import PressureSchedule, ShellLaws
-    from .simulation import _majd_from_fit
+    from ..identify.results import read_joint_friction
 
     laws = ShellLaws.from_regression_csv(regression)
     if schedule_csv:
@@ -104,7 +104,7 @@ def deflating_ramp(regression: str, out_png: str, out_csv: str = "", schedule_cs
                             "with its two ends")
     if not str(out_png).endswith(".png"):
         raise RoboballError(f"--out-png {out_png}: must end in .png (the PDF is written beside it)")
-    fp = {"steer": _majd_from_fit(friction_steer), "drive": _majd_from_fit(friction_drive)}
+    fp = read_joint_friction(friction_steer, friction_drive)
     table = run_cases(laws, schedule, tuple(contacts), duration=duration, dt=dt,
                       dissipation_scale=dissipation_scale, modulus_scale=modulus_scale, geometry=geometry,
                       friction_params=fp, hydro_update_s=hydro_update_s)

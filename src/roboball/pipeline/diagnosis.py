@@ -30,10 +30,10 @@ def diagnose_recording(recording: list, out_dir: str, friction_steer: str = "", 
     one experiment together: diagnosis.json, report.md, predictions.csv and the figures in
     `out_dir`.  With fitted friction (the pipeline's Majd fits) the ramp baseline is the paper's
     point model as the pipeline calibrates it, instead of the contract's Table I friction."""
-    from ..diagnose import diagnose, read_friction
+    from ..diagnose import diagnose
+    from ..identify.results import read_joint_friction
 
-    friction = {j: read_friction(f) for j, f in (("steer", friction_steer), ("drive", friction_drive)) if f}
-    diagnose(recording if len(recording) > 1 else recording[0], out_dir=out_dir, friction=friction or None)
+    diagnose(recording, out_dir=out_dir, friction=read_joint_friction(friction_steer, friction_drive) or None)
 
 
 def consensus_effects(diagnoses: list) -> dict:

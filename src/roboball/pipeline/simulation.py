@@ -93,15 +93,6 @@ def friction_params_of(law):
     return friction.PARAMS[law]
 
 
-def _majd_from_fit(path):
-    """Posterior medians of the fitted Majd law (other entries, noise and release angles, dropped)."""
-    if not path:
-        return None
-    with open(path, encoding="utf-8") as fh:
-        d = json.load(fh)
-    return {k: v["median"] for k, v in d["parameters"].items() if k in friction_params_of("majd")}
-
-
 def ramp_window(rec, releases: str) -> tuple[np.ndarray, np.ndarray, float]:
     """The scored part of a recorded descent: times since the release (s) and drive rates
     (rad/s) from the release until the robot leaves the ramp, and the pipe angle held before
@@ -131,7 +122,9 @@ def ramp_sim(recording: str, releases: str, regression: str, contact: str, out_c
     tt, w_e, pipe0 = ramp_window(rec, releases)
     p = rec.pressure_kpa
     zeta, omega = shell_at(regression, p)
-    params = {"steer": _majd_from_fit(friction_steer), "drive": _majd_from_fit(friction_drive)}
+    from ..identify.results import read_joint_friction
+
+    params = read_joint_friction(friction_steer, friction_drive)
     shell = ShellParams(zeta=zeta, omega_n=omega, modulus_scale=modulus_scale, dissipation_scale=dissipation_scale,
                         injected_steer=False, injected_drive=True)
     duration = float(tt[-1]) + 0.05

@@ -1,0 +1,44 @@
+"""Reading what the friction identification writes: the Majd parameters of a fit file.
+
+One reader for every consumer of the fits (the ramp descents, the deflating ramp, the diagnosis's
+calibrated ramp baseline), so that a malformed file fails the same way, in one line, everywhere.
+Kept apart from roboball.identify.friction_fit so that reading a fit does not pull the sampler
+into the code fingerprint of the stages that only read one."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from ..errors import RoboballError
+from ..physics import friction as friction_laws
+
+
+def read_friction(path) -> dict:
+    """Majd parameters from a friction fit (roboball's fit JSON: posterior medians) or a plain
+    JSON object {f_w, f_c, sigma, omega_c, n}; a one-line error names the file and what is wrong."""
+    path = Path(path)
+    try:
+        with open(path, encoding="utf-8") as fh:
+            d = json.load(fh)
+    except OSError as exc:
+        raise RoboballError(f"{path}: cannot read the friction parameters ({exc.strerror or exc})")
+    except json.JSONDecodeError as exc:
+        raise RoboballError(f"{path}: not JSON (line {exc.lineno}: {exc.msg})")
+    if isinstance(d, dict) and isinstance(d.get("parameters"), dict):
+        if d.get("law") not in (None, "majd"):
+            raise RoboballError(f"{path}: a fit of the {d.get('law')} law, not Majd's")
+        d = {k: (v.get("median") if isinstance(v, dict) else v) for k, v in d["parameters"].items()}
+    if not isinstance(d, dict):
+        raise RoboballError(f"{path}: expected a JSON object of Majd parameters")
+    out = {}
+    for k in friction_laws.PARAMS["majd"]:
+        v = d.get(k)
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or v != v:
+            raise RoboballError(f"{path}: Majd parameter '{k}' is {'missing' if v is None else repr(v)}, not a number")
+        out[k] = float(v)
+    return out
+
+
+def read_joint_friction(steer=None, drive=None) -> dict:
+    """{joint: Majd parameters} for the joints whose fit file is given (empty or None: left out)."""
+    return {joint: read_friction(path) for joint, path in (("steer", steer), ("drive", drive)) if path}
