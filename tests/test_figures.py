@@ -10,7 +10,7 @@ def _summary(path, shift_draws=0.0):
         for p in (6.9, 13.8):
             for run, d in enumerate((-0.1, 0.0, 0.2)):
                 row = {"recording": f"ramp_{p}kpa_r{run + 1}", "pressure_kpa": p, "contact": contact,
-                       "pme_percent": base + d}
+                       "pme_percent": base + d, "mape_percent": abs(base) + 0.5 + d, "rmse_rad_s": 0.01 * (1 + run)}
                 if contact != "diagnosed":        # the paper's models carry friction-posterior draws
                     row.update(pme_draw_low=base + d - 0.3 + shift_draws, pme_draw_high=base + d + 0.3 + shift_draws,
                                pme_draw_median=base + d + shift_draws)
@@ -27,8 +27,19 @@ def test_fig13_14_draw_every_model_and_a_two_decimal_table(tmp_path):
     table = pd.read_csv(out["csv"])
     assert set(table.contact) == {"point", "injected", "hydroelastic", "diagnosed"}
     md = (tmp_path / "t.md").read_text()
-    assert "| injected | 6.9 | 3 | -0.17 | -0.30 | 0.00 | [-0.6, 0.3] |" in md
-    assert "| diagnosed | 0.33 |" in md
+    assert "| injected | 6.9 | 3 | -0.17 | -0.30 | 0.00 | [-0.6, 0.3] | 0.73 | 0.0200 |" in md
+    assert "| diagnosed | 0.33 | 0.83 | 0.0200 |" in md
+    assert {"mape_mean_percent", "rmse_mean_rad_s"} <= set(table.columns)
+
+
+def test_table_without_unsigned_errors_keeps_the_pme_columns(tmp_path):
+    """Summaries written before the unsigned errors existed still make the table."""
+    src = pd.read_csv(_summary(tmp_path / "s.csv")).drop(columns=["mape_percent", "rmse_rad_s"])
+    src.to_csv(tmp_path / "old.csv", index=False)
+    out = [str(tmp_path / f) for f in ("fig13.png", "fig14.png", "t.csv", "t.md")]
+    fig13_14(str(tmp_path / "old.csv"), *out)
+    md = (tmp_path / "t.md").read_text()
+    assert "| diagnosed | 0.33 |" in md and "RMSE" not in md
 
 
 def test_posterior_whiskers_need_not_contain_the_bar(tmp_path):

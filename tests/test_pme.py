@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from roboball.pipeline.simulation import pme
+from roboball.pipeline.simulation import pme, speed_errors
 from roboball.sim.forces import InjectedShell
 from roboball.sim.plant import SimSpec
 from roboball.sim.scenarios import simulate
@@ -13,6 +13,18 @@ def test_pme_by_hand():
     w_s = np.array([0.3, 0.9, 2.2, 4.4])        # 10% too fast where defined
     assert pme(w_e, w_s) == pytest.approx(10.0)
     assert pme(w_s[2:], w_e[2:]) == pytest.approx(100 * np.mean([(2.0 - 2.2) / 2.2, (4.0 - 4.4) / 4.4]))
+
+
+def test_unsigned_errors_do_not_cancel_where_eq12_does():
+    """A model 2% fast early and 2% slow late scores 0 by eq. 12, 2% by the mean absolute
+    point error; the RMS error covers every sample, the ones below the floor too."""
+    w_e = np.array([0.1, 1.0, 2.0, 3.0, 4.0])
+    w_s = np.array([0.2, 1.02, 2.04, 2.94, 3.92])
+    e = speed_errors(w_e, w_s)
+    assert e["pme_percent"] == pytest.approx(0.0, abs=1e-12)
+    assert e["mape_percent"] == pytest.approx(2.0)
+    assert e["rmse_rad_s"] == pytest.approx(np.sqrt(np.mean((w_s - w_e) ** 2)))
+    assert speed_errors(w_e, w_e) == {"pme_percent": 0.0, "mape_percent": 0.0, "rmse_rad_s": 0.0}
 
 
 def test_pme_sign_on_a_run_where_the_answer_is_known():

@@ -20,7 +20,7 @@ import pandas as pd
 
 from ..atomic import write_csv_atomic
 from ..errors import RoboballError
-from .simulation import pme, ramp_window
+from .simulation import ramp_window, speed_errors
 
 STAGES = ("diagnose_recording", "ramp_diagnosed")
 
@@ -97,7 +97,7 @@ def ramp_diagnosed(recording: str, releases: str, diagnoses: list, out_csv: str,
     df = simulate(spec, pipe0, float(tt[-1]) + 0.05, sample_rate_hz=200.0)
     w_s = np.interp(tt, df.time_s.to_numpy(), df.drive_rate_rad_s.to_numpy())
     row = {"recording": rec.path.stem if rec.path else recording, "pressure_kpa": rec.pressure_kpa,
-           "contact": "diagnosed", "pme_percent": pme(w_e, w_s), "initial_pipe_angle_rad": pipe0,
+           "contact": "diagnosed", **speed_errors(w_e, w_s), "initial_pipe_angle_rad": pipe0,
            "n_samples": int(tt.size), "ramp_time_s": float(tt[-1]), "diagnosed_effects": describe(effects),
            "effects_from": " ".join(Path(p).parent.name for p in diagnoses)}
     write_csv_atomic(pd.DataFrame([row]), out_csv)

@@ -137,6 +137,10 @@ def fig13_14(summary: str, out13: str, out14: str, out_csv: str, out_md: str) ->
         d = s.groupby(["contact", "pressure_kpa"]).agg(pme_post_low_percent=("pme_draw_low", "min"),
                                                         pme_post_high_percent=("pme_draw_high", "max")).reset_index()
         agg = agg.merge(d, on=["contact", "pressure_kpa"], how="left")
+    if "mape_percent" in s and "rmse_rad_s" in s:    # errors that cannot cancel (speed_errors), means over runs
+        d = s.groupby(["contact", "pressure_kpa"]).agg(mape_mean_percent=("mape_percent", "mean"),
+                                                        rmse_mean_rad_s=("rmse_rad_s", "mean")).reset_index()
+        agg = agg.merge(d, on=["contact", "pressure_kpa"], how="left")
     write_csv_atomic(agg, out_csv)
     pressures = sorted(s.pressure_kpa.unique())
     # Two panels: every model, and below it the models within DETAIL_PERCENT of the recording,
@@ -189,15 +193,35 @@ def fig13_14(summary: str, out13: str, out14: str, out_csv: str, out_md: str) ->
     ax.set_ylabel("drive-speed PME averaged over pressures (%)")
     ax.set_title("Fig. 14: averaged drive speed error")
     save(fig, out14)
-    lines = ["# Drive-speed point mean error (eq. 12), percent; + = model faster than the robot", "",
-             "| contact | pressure (kPa) | runs | mean PME | min | max | posterior 95% |", "|---|---|---|---|---|---|---|"]
+    extra = "mape_mean_percent" in agg and "rmse_mean_rad_s" in agg
+    lines = ["# Drive-speed point mean error (eq. 12), percent; + = model faster than the robot", ""]
+    if extra:
+        lines += ["Eq. 12 is a signed mean: a model that runs fast early and slow late can score near zero. "
+                  "`mean |error|` is the same mean over the same samples of the absolute relative error, and "
+                  "`RMSE` the RMS drive-rate error over the whole descent (rad/s); both are means over runs.", ""]
+    head = "| contact | pressure (kPa) | runs | mean PME | min | max | posterior 95% |"
+    rule = "|---|---|---|---|---|---|---|"
+    if extra:
+        head += " mean \\|error\\| (%) | RMSE (rad/s) |"
+        rule += "---|---|"
+    lines += [head, rule]
     for r in agg.itertuples():
         post = (f"[{r.pme_post_low_percent:.1f}, {r.pme_post_high_percent:.1f}]"
                 if hasattr(r, "pme_post_low_percent") and np.isfinite(r.pme_post_low_percent) else "-")
-        lines.append(f"| {r.contact} | {r.pressure_kpa:g} | {r.runs} | {r.pme_mean_percent:.2f} | "
-                     f"{r.pme_min_percent:.2f} | {r.pme_max_percent:.2f} | {post} |")
-    lines += ["", "| contact | mean PME over all runs (%) |", "|---|---|"]
-    lines += [f"| {c} | {m[c]:.2f} |" for c in contacts]
+        line = (f"| {r.contact} | {r.pressure_kpa:g} | {r.runs} | {r.pme_mean_percent:.2f} | "
+                f"{r.pme_min_percent:.2f} | {r.pme_max_percent:.2f} | {post} |")
+        if extra:
+            line += f" {r.mape_mean_percent:.2f} | {r.rmse_mean_rad_s:.4f} |"
+        lines.append(line)
+    if extra:
+        overall = s.groupby("contact")[["mape_percent", "rmse_rad_s"]].mean().reindex(contacts)
+        lines += ["", "| contact | mean PME over all runs (%) | mean \\|error\\| (%) | RMSE (rad/s) |",
+                  "|---|---|---|---|"]
+        lines += [f"| {c} | {m[c]:.2f} | {overall.mape_percent[c]:.2f} | {overall.rmse_rad_s[c]:.4f} |"
+                  for c in contacts]
+    else:
+        lines += ["", "| contact | mean PME over all runs (%) |", "|---|---|"]
+        lines += [f"| {c} | {m[c]:.2f} |" for c in contacts]
     write_text_atomic(out_md, "\n".join(lines) + "\n")
 
 

@@ -88,6 +88,22 @@ def pme(w_measured, w_sim, floor: float = SPEED_FLOOR_RAD_S) -> float:
     return float(100.0 * np.mean((w_s[ok] - w_e[ok]) / w_e[ok]))
 
 
+def speed_errors(w_measured, w_sim, floor: float = SPEED_FLOOR_RAD_S) -> dict:
+    """Eq. 12's PME and two errors that cannot cancel, for one descent:
+    * `pme_percent`: eq. 12, the signed mean (`pme`);
+    * `mape_percent`: the mean ABSOLUTE point error, 100/N sum |w_s - w_e| / |w_e| over the same
+      samples.  Eq. 12 lets a model that runs fast early and slow late score near zero; this
+      one does not;
+    * `rmse_rad_s`: the RMS of w_s - w_e over the whole scored window (no floor), the quantity
+      the diagnosis fits."""
+    w_e = np.asarray(w_measured, float)
+    w_s = np.asarray(w_sim, float)
+    ok = np.abs(w_e) >= floor
+    mape = float(100.0 * np.mean(np.abs((w_s[ok] - w_e[ok]) / w_e[ok]))) if ok.any() else float("nan")
+    rmse = float(np.sqrt(np.mean((w_s - w_e) ** 2))) if w_e.size else float("nan")
+    return {"pme_percent": pme(w_e, w_s, floor), "mape_percent": mape, "rmse_rad_s": rmse}
+
+
 def friction_params_of(law):
     from ..physics import friction
     return friction.PARAMS[law]
@@ -138,7 +154,7 @@ def ramp_sim(recording: str, releases: str, regression: str, contact: str, out_c
 
     w_s = run(params)
     row = {"recording": rec.path.stem if rec.path else recording, "pressure_kpa": p, "contact": contact,
-           "pme_percent": pme(w_e, w_s), "initial_pipe_angle_rad": pipe0, "n_samples": int(tt.size),
+           **speed_errors(w_e, w_s), "initial_pipe_angle_rad": pipe0, "n_samples": int(tt.size),
            "ramp_time_s": float(tt[-1])}
     draws = []
     if posterior_draws and friction_steer and friction_drive:
