@@ -80,3 +80,32 @@ def test_ramp_trend_smoothing_keeps_a_linear_trend_and_removes_the_contact_bounc
     inner = (t > 0.5 + RAMP_SMOOTH_S) & (t < t[-1] - RAMP_SMOOTH_S)
     assert np.std((both - trend)[inner]) < 0.15 * np.std(bounce[inner])
     assert np.array_equal(both[t < 0.5], (trend + bounce)[t < 0.5])   # before the release: as measured
+
+
+def test_on_the_ramp_the_injected_shell_is_the_diagnosed_rolling_damping():
+    """The injected shell acts in the drive direction only through c_inject x drive rate (eq. 9,
+    section IV), the same couple as the diagnosed `viscous_damping`: with c = c_inject the two
+    Drake descents coincide, so on the ramp the injected and diagnosed models differ only in
+    that coefficient (README: 3.87 against 3.83 N m s/rad at 10.3 kPa)."""
+    import numpy as np
+
+    from roboball.config import load_robot
+    from roboball.diagnose.drake import effect_term, ramp_spec
+    from roboball.diagnose.models import model_for
+    from roboball.physics.shell import c_inject
+    from roboball.sim.plant import ShellParams, SimSpec
+    from roboball.sim.scenarios import simulate
+
+    zeta, omega_n, p = 0.155, 2.99, 10.3
+    c = c_inject(zeta, omega_n, load_robot().M_eq)
+    shell = ShellParams(zeta=zeta, omega_n=omega_n, injected_steer=False, injected_drive=True)
+    injected = SimSpec(kind="ramp", contact="injected", friction={"steer": "majd", "drive": "majd"},
+                       pressure_kpa=p, shell=shell, dt=0.001)
+    diagnosed = ramp_spec(p, None, [effect_term(model_for("ramp"), {"viscous_damping": {"c": c}})], dt=0.001)
+    a = simulate(injected, 0.0, 1.2, sample_rate_hz=100.0)
+    b = simulate(diagnosed, 0.0, 1.2, sample_rate_hz=100.0)
+    assert a.drive_rate_rad_s.iloc[-1] > 3.0                        # it rolls
+    np.testing.assert_allclose(b.drive_rate_rad_s, a.drive_rate_rad_s, atol=1e-6)
+    off = simulate(ramp_spec(p, None, [effect_term(model_for("ramp"), {"viscous_damping": {"c": 1.01 * c}})],
+                             dt=0.001), 0.0, 1.2, sample_rate_hz=100.0)
+    assert abs(off.drive_rate_rad_s.iloc[-1] - a.drive_rate_rad_s.iloc[-1]) > 1e-3   # 1% of c shows
