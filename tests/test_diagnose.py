@@ -143,3 +143,24 @@ def test_drake_runs_start_a_release_past_the_steer_stop_at_the_stop_with_a_note(
     pred = simulate_windows(prep, model_for("steer_stand"), {"viscous_c": 0.2, "q0@0": 1.2}, ())
     assert np.all(np.isfinite(pred[0])) and abs(pred[0][0] - 1.0) < 0.02
     assert any("past the steer joint's limits" in n and "start at the limit" in n for n in prep.notes)
+
+
+
+@pytest.mark.parametrize("case_id, found", [("shell_rock-23", ["linear_stiffness"]),
+                                            ("shell_rock-24", ["cubic_stiffness"])])
+def test_undamped_shell_grabbed_mid_swing_and_held_between_its_extremes(tmp_path, case_id, found):
+    """Two cases of the blind benchmark's seed 7: a shell that hardly loses amplitude is grabbed
+    mid-swing and held between the extremes of its swings.  The hold was taken for the rest the
+    swings settled at (release missed: shell_rock-23), and the hand's move into the next hold
+    was fitted as a free half swing (shell_rock-24); both diagnoses then failed."""
+    import sys
+
+    sys.path.insert(0, str(REPO / "benchmarks"))
+    import diagnose_blind
+
+    case = next(c for c in diagnose_blind.draw_cases(7) if c["id"] == case_id)
+    csv = diagnose_blind.make_recording(case, tmp_path)
+    d, js = diagnose(str(csv), settings=FAST, drake=False)
+    assert len(d.prep.windows) == 3
+    assert sorted(m["effect"] for m in js["missing_physics"]) == found
+    assert js["verdict"] == "augmented"

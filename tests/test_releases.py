@@ -104,6 +104,12 @@ CASES = {
     "grab mid-swing": [dict(offset=0.5, zeta=0.05, omega_n=4, free_s=3.0),
                        dict(offset=-0.5, zeta=0.05, omega_n=4, free_s=2.0),
                        dict(offset=0.4, zeta=0.1, omega_n=3)],
+    # a shell that hardly loses amplitude (the blind benchmark's stiffened shell, seed 7): the hand
+    # grabs it mid-swing and holds it between the extremes of its swings, which must not be
+    # taken for the rest it settled at
+    "undamped, held between extremes": [dict(offset=-0.38, zeta=0.002, omega_n=2.6, free_s=7.3),
+                                        dict(offset=0.37, zeta=0.002, omega_n=2.6, free_s=7.6),
+                                        dict(offset=-0.22, zeta=0.002, omega_n=2.6, free_s=7.0)],
     # quick hand moves
     "fast moves": [dict(offset=0.5, zeta=0.1, omega_n=4, move_s=0.4, hold_s=0.5),
                    dict(offset=-0.5, zeta=0.2, omega_n=6, move_s=0.3, hold_s=0.4)],

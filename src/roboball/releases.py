@@ -433,6 +433,14 @@ def _oscillation_releases(sig: PreparedSignal, kind: str, min_hold_s: float, min
             # stops it), else extrapolated from the decay of the turning points.
             rest = _settled_level(sig, ext[last], half_period,
                                   min(vals[-1], vals[-2]) - 3 * h, max(vals[-1], vals[-2]) + 3 * h)
+            # A body comes to rest through decaying swings.  Swings that kept their size until
+            # they stop were stopped by a hand (a lightly damped shell grabbed mid-swing and held
+            # between its extremes): the level it is held at is not the rest of the motion.  The
+            # last swing may be cut short by the grab, so the larger of the last two is compared
+            # with the first full swing after the release.
+            if rest is not None and last >= j + 4 and \
+                    max(abs(vals[-1] - vals[-2]), abs(vals[-2] - vals[-3])) > 0.9 * abs(vals[2] - vals[1]):
+                rest = None
             if rest is None:
                 rest = _rest_estimate(vals_a[1:]) if len(vals_a) > 3 else _rest_estimate(vals_a)
         k_last = ext[last]

@@ -123,14 +123,18 @@ def _end_of_free_response(t, y, rel: Release, t_stop: float, noise: float, q: fl
     tu, ys = sig.tu, sig.ys
     amp = abs(rel.y_release - rel.y_rest)
     ext = zigzag(ys, max(sig.hysteresis, 0.02 * amp))
+    half = rel.half_period_s if np.isfinite(rel.half_period_s) else 0.5
     ext = ext[(tu[ext] > rel.t_release_s + 0.05) & (tu[ext] <= rel.t_end_s)]
+    if t_stop < t[-1]:
+        # A turning point where the next hold begins is the end of the hand's move into it,
+        # not a free swing's: the hand grabbed the body before it.
+        ext = ext[tu[ext] < t_stop - 0.25 * half]
     if len(ext) == 0:
         return float(min(rel.t_end_s, t_stop)), "release finder"
     k_last = int(ext[-1])
     k_prev = int(ext[-3]) if len(ext) >= 3 else int(np.searchsorted(tu, rel.t_release_s))
     tol = 3.0 * sig.sigma + 2.0 * sig.q
     lo, hi = float(ys[k_prev:k_last + 1].min()) - tol, float(ys[k_prev:k_last + 1].max()) + tol
-    half = rel.half_period_s if np.isfinite(rel.half_period_s) else 0.5
     after = ys[k_last:]
     out = np.nonzero((after < lo) | (after > hi))[0]
     t_last = float(tu[k_last])
@@ -148,6 +152,11 @@ def _end_of_free_response(t, y, rel: Release, t_stop: float, noise: float, q: fl
         if still.size:
             k = k_last + int(still[0])
             level = float(np.median(ys[k:k + n_win]))
+            swing = abs(float(ys[k_last]) - rel.y_rest)
+            if abs(level - float(ys[k_last])) > 0.5 * swing and abs(level - rel.y_rest) > 0.5 * swing:
+                # Still, but neither where the last swing turned (a dry-friction stop) nor near
+                # rest (a damped settle): far across rest, where a hand carried and holds it.
+                return t_last, "hand took over after the last turning point"
             dev = np.nonzero(np.abs(ys[k:] - level) > still_tol)[0]
             if dev.size:
                 end, reason = float(tu[k + dev[0]]) - 0.15, "hand moved the body at rest"
