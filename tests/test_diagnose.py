@@ -145,7 +145,6 @@ def test_drake_runs_start_a_release_past_the_steer_stop_at_the_stop_with_a_note(
     assert any("past the steer joint's limits" in n and "start at the limit" in n for n in prep.notes)
 
 
-
 @pytest.mark.parametrize("case_id, found", [("shell_rock-23", ["linear_stiffness"]),
                                             ("shell_rock-24", ["cubic_stiffness"])])
 def test_undamped_shell_grabbed_mid_swing_and_held_between_its_extremes(tmp_path, case_id, found):

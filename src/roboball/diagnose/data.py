@@ -46,7 +46,7 @@ the holds as releases.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -360,8 +360,7 @@ def pool(preps: list) -> Prepared:
     windows, notes = [], []
     for p in preps:
         for w in p.windows:
-            windows.append(Window(index=len(windows), t0=w.t0, t=w.t, y=w.y, q0=w.q0, release=w.release,
-                                  end_reason=w.end_reason, start=w.start, source=p.recording))
+            windows.append(replace(w, index=len(windows), source=p.recording))
         notes += [f"{p.recording.label}: {n}" for n in dict.fromkeys(p.notes)]
     return Prepared(recording=first.recording, kind=first.kind, signal=first.signal, unit=first.unit,
                     windows=windows, noise=float(np.median([p.noise for p in preps])),

@@ -95,11 +95,13 @@ def diagnosis_json(d: Diagnosis, located_base, located_final, drake_before=None,
     if drake_before is not None:
         fit["drake_rmse_before"] = _round(drake_before)
         fit["drake_rmse_after"] = _round(drake_after)
+    baseline = {"description": d.model.description, "fitted": baseline_fitted(d)}
+    friction = getattr(d.model, "friction_params", None)     # the ramp baseline's fitted friction, if any
+    if friction:
+        baseline["friction"] = friction
     return {
         "kind": d.prep.kind,
-        "baseline": {"description": d.model.description, "fitted": baseline_fitted(d),
-                     **({"friction": getattr(d.model, "friction_params")}
-                        if getattr(d.model, "friction_params", None) else {})},
+        "baseline": baseline,
         "verdict": d.verdict,
         "located": located,
         "missing_physics": missing_physics(d),
