@@ -163,3 +163,24 @@ def test_undamped_shell_grabbed_mid_swing_and_held_between_its_extremes(tmp_path
     assert len(d.prep.windows) == 3
     assert sorted(m["effect"] for m in js["missing_physics"]) == found
     assert js["verdict"] == "augmented"
+
+
+@pytest.mark.parametrize("case_id, found", [("steer_stand-12", ["coulomb_friction", "linear_stiffness"]),
+                                            ("steer_stand-16", ["linear_stiffness", "quadratic_drag"])])
+def test_a_stiffness_is_not_reported_as_backlash_without_free_play(tmp_path, case_id, found):
+    """Two cases of the blind benchmark's seed 8: a positive linear stiffness (with Coulomb
+    friction, or with quadratic drag) was reported as backlash of free play b = 0.0001 rad
+    (95% interval [-0.0001, 0.0002]), which fitted a hair better than linear stiffness and so
+    won on BIC.  Backlash with b = 0 is linear stiffness; the keep rule now asks b's interval to
+    exclude zero too (Effect.reduces_to)."""
+    import sys
+
+    sys.path.insert(0, str(REPO / "benchmarks"))
+    import diagnose_blind
+
+    case = next(c for c in diagnose_blind.draw_cases(8) if c["id"] == case_id)
+    csv = diagnose_blind.make_recording(case, tmp_path)
+    d, js = diagnose(str(csv), settings=FAST, drake=False)
+    assert sorted(m["effect"] for m in js["missing_physics"]) == found
+    k = next(m for m in js["missing_physics"] if m["effect"] == "linear_stiffness")["parameters"]["k"]
+    assert k == pytest.approx(case["effects"]["linear_stiffness"]["k"], rel=0.02)

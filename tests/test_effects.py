@@ -26,6 +26,25 @@ def test_library_holds_exactly_the_vocabulary_with_units_and_bounds():
     assert fx.LIBRARY["com_offset"].kind == "geometric" and fx.LIBRARY["com_offset"].context == ("k_g",)
 
 
+def test_an_effect_at_a_reducing_parameter_of_zero_is_exactly_its_simpler_entry():
+    """Backlash with no free play IS linear stiffness: the selection must then report the
+    simpler entry (roboball.diagnose.decide.Selector.not_itself), which it can only do if the
+    library says so and the two laws agree."""
+    q = np.linspace(-0.8, 0.8, 33)
+    qd = np.linspace(1.0, -1.0, 33)
+    nested = {name: eff for name, eff in fx.LIBRARY.items() if eff.reduces_to}
+    assert set(nested) == {"backlash"}
+    for name, eff in nested.items():
+        assert eff.defining_params()[0] == eff.params[0].name
+        for param, simpler in eff.reduces_to:
+            assert simpler in fx.LIBRARY and param in eff.defining_params()
+            mag = {p.name: p.typical for p in eff.params} | {param: 0.0}
+            other = fx.LIBRARY[simpler]
+            same = {other.params[0].name: mag[eff.params[0].name]}
+            assert np.allclose(eff.law(q, qd, **mag), other.law(q, qd, **same), atol=1e-12)
+    assert fx.LIBRARY["coulomb_friction"].defining_params() == ("tau_c",)
+
+
 @pytest.mark.parametrize("name,q,qd,expected", [
     ("viscous_damping", 0.2, -1.5, 0.45),
     ("coulomb_friction", 0.0, 2.0, -0.45),

@@ -20,7 +20,9 @@
    - it is material: it lowers the held-out mean square by at least `material_noise` = 4
      noise variances (an RMS of two noise levels), so the sub-noise corrections that absorb
      small model-form differences (integrator, contact compliance) are not reported;
-   - the 95% interval of its magnitude excludes zero.
+   - the 95% interval of its magnitude excludes zero, and so does that of every parameter at
+     whose zero it becomes a simpler vocabulary entry (`Effect.reduces_to`: backlash whose
+     free play b may be zero is linear stiffness, one parameter fewer for the same fit).
    Rounds stop when nothing qualifies, the residual is white (lag-1 autocorrelation below
    `white_rho` and RMS within `white_factor` noise levels), or `max_effects` were added.
 4. A backward pass drops an earlier effect that no longer passes the keep rule against the
@@ -253,8 +255,9 @@ class Selector:
         gain = (reference.cv_rmse ** 2 - sc.cv_rmse ** 2) / self.prep.noise ** 2
         if not gain >= need:
             return False, f"lowers the held-out mean square by {gain:.3g} noise variances, below {need:.3g}"
-        if not self.significant(sc, sc.effects[-1]):
-            return False, "95% interval of its magnitude includes zero"
+        why = self.not_itself(sc, sc.effects[-1])
+        if why:
+            return False, why
         return True, "kept"
 
     def white(self, sc: Scored) -> bool:
@@ -279,11 +282,24 @@ class Selector:
             out[key] = (p.values[key] - 1.96 * sd, p.values[key] + 1.96 * sd)
         return out
 
-    def significant(self, sc: Scored, effect: str) -> bool:
+    def not_itself(self, sc: Scored, effect: str) -> str:
+        """Why the fitted `effect` is not shown to be itself ("" when it is): the 95% interval
+        of its magnitude includes zero, or that of a parameter at whose zero it becomes a
+        simpler vocabulary entry (backlash whose free play may be zero is linear stiffness,
+        which is then the effect to report: fewer parameters, the same fit)."""
         ci = self.ci95(sc)
-        first = f"{effect}.{fx.LIBRARY[effect].params[0].name}"
-        lo, hi = ci[first]
-        return not (lo <= 0.0 <= hi)
+        eff = fx.LIBRARY[effect]
+        simpler = dict(eff.reduces_to)
+        for name in eff.defining_params():
+            lo, hi = ci[f"{effect}.{name}"]
+            if lo <= 0.0 <= hi:
+                if name in simpler:
+                    return f"95% interval of {name} includes zero: {effect} with {name} = 0 is {simpler[name]}"
+                return "95% interval of its magnitude includes zero"
+        return ""
+
+    def significant(self, sc: Scored, effect: str) -> bool:
+        return not self.not_itself(sc, effect)
 
     # ---- the selection ----------------------------------------------------------------------
     def run(self) -> Diagnosis:
@@ -424,7 +440,8 @@ class Selector:
             cand = Scored(effects=best_p.effects, full=best_p)
             self.cross_validate([cand], cofit=True)
             self.score(cand, current)
-            if cand.delta_bic < -s.bic_min and cand.cv_rmse <= current.cv_rmse:
+            if cand.delta_bic < -s.bic_min and cand.cv_rmse <= current.cv_rmse and \
+                    self.significant(cand, cand.effects[-1]):
                 out = next(e for e in chosen if e not in cand.effects)
                 self.log(f"swap: {out} -> {cand.effects[-1]} (dBIC {cand.delta_bic:.1f}, held-out "
                          f"{cand.cv_rmse:.4g} vs {current.cv_rmse:.4g})")

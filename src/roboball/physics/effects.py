@@ -131,6 +131,13 @@ class Effect:
     context: tuple = ()
     explains: str = ""
     description: str = ""
+    reduces_to: tuple = ()      # ((param, simpler effect), ...): at param = 0 this effect IS that one
+
+    def defining_params(self) -> tuple:
+        """The parameters that must differ from zero for the effect to be itself: its
+        magnitude (the first parameter), and each parameter at whose zero it becomes a simpler
+        vocabulary entry (backlash with no free play is linear stiffness)."""
+        return (self.params[0].name,) + tuple(p for p, _ in self.reduces_to if p != self.params[0].name)
 
     @property
     def param_names(self) -> tuple:
@@ -140,9 +147,9 @@ class Effect:
         return {p.name: p.unit for p in self.params}
 
 
-def _e(name, law, params, explains, kind="force", context=()):
+def _e(name, law, params, explains, kind="force", context=(), reduces_to=()):
     return Effect(name=name, law=law, params=tuple(params), kind=kind, context=tuple(context),
-                  explains=explains, description=(law.__doc__ or "").split("\n")[0])
+                  explains=explains, description=(law.__doc__ or "").split("\n")[0], reduces_to=tuple(reduces_to))
 
 
 LIBRARY: dict[str, Effect] = {e.name: e for e in (
@@ -171,7 +178,8 @@ LIBRARY: dict[str, Effect] = {e.name: e for e in (
     _e("backlash", backlash,
        [Param("k_b", "N m/rad", 0.0, 200.0, 5.0, grid=(0.1, 10.0, 9)),
         Param("b", "rad", 0.0, 1.0, 0.15, grid=(0.2, 4.0, 8))],
-       "free play about rest: small swings at the rigid frequency, large swings stiffer"),
+       "free play about rest: small swings at the rigid frequency, large swings stiffer",
+       reduces_to=(("b", "linear_stiffness"),)),
     _e("rolling_resistance", rolling_resistance,
        [Param("tau_rr", "N m", 0.0, 20.0, 1.0)],
        "a constant torque opposes rolling: linear amplitude loss, stops off rest, lower top speed"),
