@@ -40,6 +40,22 @@ def test_steer_stand_with_dry_friction_and_com_offset_matches_drake():
     assert abs(yd[-1] - rest) > 0.01
 
 
+def test_steer_stand_with_stiction_matches_drake_and_holds_off_rest():
+    """The breakaway torque holds the pendulum where kinetic friction alone would let it slide
+    on: the reduced model and Drake agree within 3 mrad over 8 s, both come to rest, and with
+    stiction the pendulum stops further from rest (31 mrad against 12)."""
+    base = {"viscous_c": 0.1}
+    spec_kw = dict(friction={"steer": "viscous"}, friction_params={"steer": {"c": 0.1}})
+    rest = model_for("steer_stand").rest
+    both = {"coulomb_friction": {"tau_c": 0.5}, "stiction": {"tau_s": 0.6}}
+    yr, yd = _compare("steer_stand", rest - 0.45, 8.0, both, base, spec_kw, 2.5e-4)
+    assert np.max(np.abs(yr - yd)) < 3e-3
+    _, yc = _compare("steer_stand", rest - 0.45, 8.0, {"coulomb_friction": {"tau_c": 0.5}}, base, spec_kw, 2.5e-4)
+    last = slice(-500, None)                 # the last second at 500 Hz
+    assert np.ptp(yd[last]) < 2e-3 and np.ptp(yc[last]) < 2e-3
+    assert abs(yd[-1] - rest) > abs(yc[-1] - rest) + 0.01
+
+
 def test_shell_with_damping_and_stiffness_matches_drake_point_contact():
     """Tolerance: 1.5% of the swing over 6 s (Drake's compliant point contact vs rolling)."""
     effects = {"viscous_damping": {"c": 1.5}, "linear_stiffness": {"k": 8.0}}
