@@ -215,11 +215,12 @@ def visibility(case: dict, dense=None) -> dict:
     if dense is None:
         dense = _dense(case)[0]
     t, y = dense.time_s.to_numpy(), dense[sig].to_numpy()
+    noise = noise_level(case["kind"])
     out = {}
     for e in case["effects"]:
         other = _dense(dict(case, effects={k: v for k, v in case["effects"].items() if k != e}))[0]
         y2 = np.interp(t, other.time_s.to_numpy(), other[sig].to_numpy())
-        out[e] = round(float(np.sqrt(np.mean((y - y2) ** 2)) / noise_level(case["kind"])), 2)
+        out[e] = round(float(np.sqrt(np.mean((y - y2) ** 2)) / noise), 2)
     return out
 
 
