@@ -127,3 +127,46 @@ def test_cli_diagnoses_several_recordings_with_fitted_friction(tmp_path, capsys)
     assert cli_main(["diagnose", str(a), str(c), "--out", str(tmp_path / "x")]) != 0
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "cannot be pooled" in err
+
+
+def test_a_candidate_refused_only_as_immaterial_is_reported_with_its_interval(tmp_path):
+    """At 10.3 kPa the pooled runs support a rolling resistance beside the damping (it lowers the
+    BIC and the held-out error, and its interval excludes zero) but it lowers the held-out mean
+    square by less than the 4 noise variances materiality asks.  It is not added (the contract's
+    missing_physics lists only the model's effects), but the report, details.json and the
+    pipeline's uncertainty report show it with its interval and why it was refused."""
+    from roboball.diagnose.decide import immaterial
+    from roboball.pipeline.report import _immaterial
+
+    out = tmp_path / "d"
+    d, js = diagnose([RAMP / f"ramp_10.3kpa_r{r}.csv" for r in (1, 2, 3)], out_dir=out, drake=False,
+                     friction=FITTED)
+    assert [m["effect"] for m in js["missing_physics"]] == ["viscous_damping"]
+    (rr,) = d.immaterial
+    assert rr["effect"] == "rolling_resistance" and rr["failed"] == ["material"]
+    assert rr["delta_bic"] < -10 and 0 < rr["heldout_gain"] < 4
+    lo, hi = rr["ci95"]["rolling_resistance.tau_rr"]
+    assert 0 < lo < rr["params"]["rolling_resistance.tau_rr"] < hi
+    details = json.loads((out / "details.json").read_text())
+    assert [i["effect"] for i in details["immaterial"]] == ["rolling_resistance"]
+    assert immaterial(details["rounds"]) == details["immaterial"]
+    report = (out / "report.md").read_text()
+    section = report.split("### Supported by the data, below materiality")[1].split("## Fit")[0]
+    assert "| rolling_resistance | drive | tau_rr = " in section and f"{rr['heldout_gain']:.3g}" in section
+    # the selection states the rule it applied and each candidate's decision
+    assert "at least 4 noise variances (materiality)" in report
+    assert "| rolling_resistance |" in report.split("Round 2:")[1] and "below 4 |" in report.split("Round 2:")[1]
+    assert _immaterial(out / "details.json").startswith("rolling_resistance (tau_rr = ")
+    assert _immaterial(tmp_path / "absent" / "details.json") == ""
+
+
+def test_immaterial_lists_only_the_stopping_rounds_candidates_refused_for_materiality_alone():
+    from roboball.diagnose.decide import immaterial
+
+    kept = {"effect": "viscous_damping", "kept": True, "failed": []}
+    small = {"effect": "rolling_resistance", "kept": False, "failed": ["material"]}
+    unsure = {"effect": "quadratic_drag", "kept": False, "failed": ["material", "itself"]}
+    screened = {"effect": "linear_stiffness", "kept": False, "failed": ["screened"]}
+    assert immaterial([]) == []
+    assert immaterial([[kept, small]]) == []                      # the selection went on: small was beaten
+    assert immaterial([[kept], [small, unsure, screened]]) == [small]

@@ -125,6 +125,9 @@ rule uncertainty_report:
         sweep=f"{PF}/table_sweep.md",
         diagnoses=[f"results/diagnose/{s}/diagnosis.json" for s in stems("steer_stand", True) + stems("shell_rock", True)]
                   + [f"results/diagnose/pressure/{g}/diagnosis.json" for g in RAMP_GROUPS],
+        # read beside each diagnosis.json: the candidates supported by the data but below materiality
+        details=[f"results/diagnose/{s}/details.json" for s in stems("steer_stand", True) + stems("shell_rock", True)]
+                + [f"results/diagnose/pressure/{g}/details.json" for g in RAMP_GROUPS],
         figures=[f"{PF}/fig5_friction_laws.png", f"{PF}/fig7_testbed_steer_fits.png", f"{PF}/fig8_testbed_drive_fits.png",
                  f"{PF}/fig10_shell_dynamics.png", f"{PF}/fig11_hydro_sensitivity.png", f"{PF}/fig13_ramp_pme.png",
                  f"{PF}/fig14_ramp_pme_mean.png"] + ([f"{PF}/fig7_real_steer_fits.png"] if REAL_ON else []),

@@ -43,6 +43,7 @@ rule diagnose:
         json="results/diagnose/{stem}/diagnosis.json",
         predictions="results/diagnose/{stem}/predictions.csv",
         report="results/diagnose/{stem}/report.md",
+        details="results/diagnose/{stem}/details.json",
     params: code=CODE["diagnose-recording"]
     wildcard_constraints: stem="[^/]+"
     log: "results/logs/diagnose/{stem}.log"
@@ -80,6 +81,7 @@ rule diagnose_ramp_pressure:
         json="results/diagnose/pressure/{group}/diagnosis.json",
         predictions="results/diagnose/pressure/{group}/predictions.csv",
         report="results/diagnose/pressure/{group}/report.md",
+        details="results/diagnose/pressure/{group}/details.json",
     params: code=CODE["diagnose-recording"]
     log: "results/logs/diagnose/pressure/{group}.log"
     benchmark: "results/benchmarks/diagnose/pressure/{group}.tsv"
@@ -97,6 +99,7 @@ rule diagnose_ramp_heldout:
         json="results/diagnose/heldout/{stem}/diagnosis.json",
         predictions="results/diagnose/heldout/{stem}/predictions.csv",
         report="results/diagnose/heldout/{stem}/report.md",
+        details="results/diagnose/heldout/{stem}/details.json",
     params: code=CODE["diagnose-recording"]
     log: "results/logs/diagnose/heldout/{stem}.log"
     benchmark: "results/benchmarks/diagnose/heldout/{stem}.tsv"

@@ -115,6 +115,20 @@ class Diagnosis:
     def effects(self) -> tuple:
         return self.final.effects
 
+    @property
+    def immaterial(self) -> list:
+        return immaterial(self.steps)
+
+
+def immaterial(steps: list) -> list:
+    """Candidates of the round where the selection stopped (`steps`: Diagnosis.steps, or the
+    "rounds" of details.json) that the data support (they lower the BIC and the held-out error,
+    and their intervals exclude zero) but that fall short of materiality alone: not added,
+    reported so the user can judge them."""
+    if not steps or any(i.get("kept") for i in steps[-1]):
+        return []
+    return [i for i in steps[-1] if i.get("failed") == ["material"]]
+
 
 def residuals(prep: Prepared, pred: dict) -> dict:
     return {w.index: pred[w.index] - w.y for w in prep.windows if w.index in pred}
@@ -244,21 +258,32 @@ class Selector:
         """Mean squared residual the model removes relative to `reference`, in noise variances."""
         return (reference.full.rss - sc.full.rss) / sc.full.n / self.prep.noise ** 2
 
-    def qualifies(self, sc: Scored, reference: Scored, base: Scored) -> tuple[bool, str]:
-        """The keep rule: information criterion, held-out error, materiality, significance."""
+    def failures(self, sc: Scored, reference: Scored, base: Scored) -> list:
+        """Every condition of the keep rule that `sc` fails against `reference`, in the rule's
+        order, as (condition, why) with condition "bic", "heldout", "material" or "itself"."""
         s = self.s
+        out = []
         if not sc.delta_bic < -s.bic_min:
-            return False, f"delta BIC {sc.delta_bic:.1f} not below -{s.bic_min:g}"
+            out.append(("bic", f"delta BIC {sc.delta_bic:.1f} not below -{s.bic_min:g}"))
         if not sc.cv_rmse < (1.0 - s.cv_gain) * reference.cv_rmse:
-            return False, f"held-out RMS {sc.cv_rmse:.4g} not {s.cv_gain:.0%} below {reference.cv_rmse:.4g}"
+            out.append(("heldout", f"held-out RMS {sc.cv_rmse:.4g} not {s.cv_gain:.0%} below {reference.cv_rmse:.4g}"))
         need = max(s.material_noise, s.material_share * base.cv_rmse ** 2 / self.prep.noise ** 2)
-        gain = (reference.cv_rmse ** 2 - sc.cv_rmse ** 2) / self.prep.noise ** 2
+        gain = self.heldout_gain(sc, reference)
         if not gain >= need:
-            return False, f"lowers the held-out mean square by {gain:.3g} noise variances, below {need:.3g}"
+            out.append(("material", f"lowers the held-out mean square by {gain:.3g} noise variances, below {need:.3g}"))
         why = self.not_itself(sc, sc.effects[-1])
         if why:
-            return False, why
-        return True, "kept"
+            out.append(("itself", why))
+        return out
+
+    def heldout_gain(self, sc: Scored, reference: Scored) -> float:
+        """Held-out mean square `sc` removes relative to `reference`, in noise variances."""
+        return (reference.cv_rmse ** 2 - sc.cv_rmse ** 2) / self.prep.noise ** 2
+
+    def qualifies(self, sc: Scored, reference: Scored, base: Scored) -> tuple[bool, str]:
+        """The keep rule: information criterion, held-out error, materiality, significance."""
+        fails = self.failures(sc, reference, base)
+        return (False, fails[0][1]) if fails else (True, "kept")
 
     def white(self, sc: Scored) -> bool:
         return sc.rho1 < self.s.white_rho and sc.rmse <= self.s.white_factor * self.prep.noise
@@ -350,11 +375,20 @@ class Selector:
                 if sc is None:
                     sc = Scored(effects=p.effects, full=p)
                 self.score(sc, current)
-                ok, why = self.qualifies(sc, current, base) if sc in top else (False, "not among the best screened")
-                round_info.append(dict(effect=p.effects[-1], rmse=sc.rmse, cv_rmse=sc.cv_rmse,
-                                       delta_bic=sc.delta_bic, rho1=sc.rho1, explained=self.explained(sc, current),
-                                       params={k: p.values[k] for k in effect_keys(p.effects[-1:])},
-                                       qualifies=ok, reason=why, kept=False))
+                keys = effect_keys(p.effects[-1:])
+                info = dict(effect=p.effects[-1], rmse=sc.rmse, cv_rmse=sc.cv_rmse,
+                            delta_bic=sc.delta_bic, rho1=sc.rho1, explained=self.explained(sc, current),
+                            params={k: p.values[k] for k in keys})
+                if sc in top:
+                    fails = self.failures(sc, current, base)
+                    ci = self.ci95(sc)
+                    info.update(qualifies=not fails, reason=fails[0][1] if fails else "kept",
+                                failed=[name for name, _ in fails], heldout_gain=self.heldout_gain(sc, current),
+                                ci95={k: list(ci[k]) for k in keys})
+                else:
+                    info.update(qualifies=False, reason="not among the best screened", failed=["screened"])
+                info["kept"] = False
+                round_info.append(info)
             eligible = [sc for sc, info in zip([next((t for t in top if t.full is probs[i]), None) for i in order],
                                                round_info) if info["qualifies"]]
             summary = ", ".join(f"{i['effect']} dBIC {i['delta_bic']:.4g} cv {i['cv_rmse']:.4g} "

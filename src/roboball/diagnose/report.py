@@ -255,7 +255,25 @@ def report_md(d: Diagnosis, js: dict, located_base, located_final, figures, drak
                              _fmt(m["delta_bic"], 5), m["explains"]))
         lines.append(_md_table(rows, ["effect", "dof", "parameter", "95% interval", "delta BIC", "signature"]))
     else:
-        lines.append("None: no effect of the vocabulary improved both the BIC and the held-out error.")
+        lines.append("None: no effect of the vocabulary passed the keep rule (see Selection).")
+    if d.immaterial:
+        rows = []
+        for i in d.immaterial:
+            e = i["effect"]
+            units = fx.LIBRARY[e].units()
+            for key, val in i["params"].items():
+                name = key.split(".", 1)[1]
+                lo, hi = i["ci95"][key]
+                rows.append((e, d.model.dof, f"{name} = {_fmt(val)} {units[name]}", f"[{_fmt(lo)}, {_fmt(hi)}]",
+                             _fmt(i["delta_bic"], 5), _fmt(i["heldout_gain"], 3)))
+        lines += ["", "### Supported by the data, below materiality", "",
+                  "These candidates lower the BIC and the held-out error and their intervals exclude zero, "
+                  f"but they lower the held-out mean square by less than {d.settings.material_noise:g} noise "
+                  "variances: the prediction they change is within about two noise levels, the size of the "
+                  "model-form differences (integrator, contact compliance) a correction can absorb. They are "
+                  "not added to the model; they are listed so that you can judge them.", "",
+                  _md_table(rows, ["effect", "dof", "parameter", "95% interval", "delta BIC",
+                                   "held-out gain (noise variances)"])]
     lines += ["", "## Fit", "",
               _md_table([("reduced model, fitted", _fmt(d.baseline.rmse), _fmt(d.final.rmse)),
                          ("reduced model, held out", _fmt(d.baseline.cv_rmse), _fmt(d.final.cv_rmse)),
@@ -266,13 +284,16 @@ def report_md(d: Diagnosis, js: dict, located_base, located_final, figures, drak
                               f"{d.settings.n_blocks} contiguous time blocks, each predicted by a fit to the others"),
               "", "![recording, baseline and augmented model in Drake](overlay.png)", ""]
     lines += ["## Selection", "", "Each round adds every remaining candidate in turn and refits by simulation "
-              "error; a candidate is kept when it lowers the BIC by more than "
-              f"{d.settings.bic_min:g}, the held-out RMS by more than {d.settings.cv_gain:.0%}, and its "
-              "magnitude's 95% interval excludes zero.", ""]
+              "error; the best two by fit are cross-validated. A candidate qualifies when it lowers the BIC by "
+              f"more than {d.settings.bic_min:g}, lowers the held-out RMS by more than {d.settings.cv_gain:.0%}, "
+              f"lowers the held-out mean square by at least {d.settings.material_noise:g} noise variances "
+              "(materiality), and the 95% intervals of its magnitude (and of any parameter at whose zero it "
+              "would be a simpler effect) exclude zero; the qualifying candidate with the lowest BIC is kept.", ""]
     for k, step in enumerate(d.steps, start=1):
         rows = [(i["effect"], _fmt(i["rmse"]), _fmt(i["cv_rmse"]), _fmt(i["delta_bic"], 5),
-                 "kept" if i.get("kept") else "") for i in step]
-        lines += [f"Round {k}:", "", _md_table(rows, ["candidate", "RMS", "held-out RMS", "delta BIC", ""]), ""]
+                 "kept" if i.get("kept") else ("qualifies, higher BIC" if i.get("qualifies") else i.get("reason", "")))
+                for i in step]
+        lines += [f"Round {k}:", "", _md_table(rows, ["candidate", "RMS", "held-out RMS", "delta BIC", "decision"]), ""]
     if d.verdict == "unexplained":
         lines += ["## Unexplained residual", "", "A structured residual remains that no effect of the vocabulary "
                   "explains; it sits here:", "",
@@ -316,6 +337,7 @@ def write(d: Diagnosis, out_dir, drake: bool = True) -> dict:
         "final_values": d.final.values,
         "ci95": {k: list(v) for k, v in d.ci95.items()},
         "rounds": d.steps,
+        "immaterial": d.immaterial,      # supported by the data, below materiality: not added
         "regimes_baseline": loc_base.regimes,
         "regimes_augmented": loc_final.regimes,
         "located_augmented": loc_final.windows,

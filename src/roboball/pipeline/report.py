@@ -17,6 +17,23 @@ from ..atomic import write_text_atomic
 STAGES = ("uncertainty_report",)
 
 
+def _immaterial(details_path) -> str:
+    """The candidates a diagnosis found supported by the data but below materiality, read from
+    its details.json when there is one: "rolling_resistance (tau_rr = 1.13 [0.91, 1.35]; lowers
+    the held-out mean square by 0.9 noise variances)"."""
+    path = Path(details_path)
+    if not path.exists():
+        return ""
+    with open(path, encoding="utf-8") as fh:
+        found = json.load(fh).get("immaterial") or []
+    out = []
+    for i in found:
+        params = ", ".join(f"{k.split('.', 1)[1]} = {v:.3g} [{i['ci95'][k][0]:.3g}, {i['ci95'][k][1]:.3g}]"
+                           for k, v in i["params"].items())
+        out.append(f"{i['effect']} ({params}; lowers the held-out mean square by {i['heldout_gain']:.2g} noise variances)")
+    return ", ".join(out)
+
+
 def _img(path) -> str:
     p = Path(path)
     if not p.exists():
@@ -94,9 +111,12 @@ def uncertainty_report(fits: list, comparisons: list, regression: str, pme_table
             found = ", ".join(f"{m['effect']} ({m.get('dof', '')}: " + ", ".join(f"{k} = {v:.3g}" for k, v in m["parameters"].items()) + ")"
                               for m in d.get("missing_physics", [])) or "none"
             fit = d.get("fit", {})
+            hint = _immaterial(Path(path).with_name("details.json"))
             parts.append(f"<p><b>{html.escape(Path(path).parent.name)}</b> ({d['kind']}): verdict <b>{d['verdict']}</b>; "
                          f"missing physics: {html.escape(found)}; held-out RMSE {fit.get('rmse_heldout_before', float('nan')):.4g} "
-                         f"&rarr; {fit.get('rmse_heldout_after', float('nan')):.4g} {fit.get('units', '')}.</p>")
+                         f"&rarr; {fit.get('rmse_heldout_after', float('nan')):.4g} {fit.get('units', '')}"
+                         + (f"; supported by the data but below materiality (not added): {html.escape(hint)}" if hint else "")
+                         + ".</p>")
     parts.append("<h2>Figures</h2>")
     parts += [_img(f) for f in figures]
     parts.append("</body></html>")
