@@ -25,8 +25,9 @@ contact and its campaign friction are switched off.
 Printed: confusion matrix (rows: concealed effect, columns: reported effect; a case with k
 concealed and m reported effects adds k x m counts), exact-set accuracy, false-positive rate on
 the null cases, median relative parameter error (every parameter of every concealed effect
-that was found), median held-out RMSE drop on the non-null cases, per-kind accuracy and the
-wall time.  Targets (issue 6): exact-set accuracy >= 90%, no effect on null cases, median
+that was found), median held-out RMSE drop on the non-null cases, per-kind accuracy, the
+candidates refused for materiality alone (concealed ones the diagnosis saw but found too small,
+and ones that were not concealed) and the wall time.  Targets (issue 6): exact-set accuracy >= 90%, no effect on null cases, median
 parameter error <= 15%, median held-out RMSE drop >= 50%.
 """
 from __future__ import annotations
@@ -258,6 +259,8 @@ def run_case(case: dict, keep: str | None = None) -> dict:
                       make_s=round(t_made, 1), diagnose_s=round(t_diag, 1))
         if proc.returncode == 0:
             result["diagnosis"] = json.loads((out / "diagnosis.json").read_text())
+            details = json.loads((out / "details.json").read_text())
+            result["immaterial"] = [i["effect"] for i in details.get("immaterial") or []]
         if keep:
             dest = Path(keep) / case["id"]
             shutil.rmtree(dest, ignore_errors=True)
@@ -271,19 +274,21 @@ def score(results: list) -> dict:
         concealed = set(r["effects"])
         d = r.get("diagnosis")
         reported = set(m["effect"] for m in d["missing_physics"]) if d else {"<failed>"}
-        errs = []
+        errs, by_effect = [], {}
         if d:
             for m in d["missing_physics"]:
                 if m["effect"] in r["effects"]:
                     for p, truth in r["effects"][m["effect"]].items():
                         if p in m["parameters"] and truth != 0:
                             errs.append(abs(m["parameters"][p] - truth) / abs(truth))
+                            by_effect.setdefault(m["effect"], []).append(errs[-1])
         drop = None
         if d and concealed:
             f = d["fit"]
             drop = 1.0 - f["rmse_heldout_after"] / f["rmse_heldout_before"]
         rows.append(dict(id=r["id"], kind=r["kind"], concealed=sorted(concealed), reported=sorted(reported),
-                         exact=concealed == reported, param_errors=errs, drop=drop,
+                         immaterial=sorted(r.get("immaterial", [])),
+                         exact=concealed == reported, param_errors=errs, param_errors_by_effect=by_effect, drop=drop,
                          verdict=d["verdict"] if d else "failed", seconds=r.get("diagnose_s")))
     null = [x for x in rows if not x["concealed"]]
     nonnull = [x for x in rows if x["concealed"]]
@@ -294,10 +299,32 @@ def score(results: list) -> dict:
         exact_set_accuracy=sum(x["exact"] for x in rows) / len(rows),
         null_false_positive_rate=(sum(bool(x["reported"]) for x in null) / len(null)) if null else None,
         median_parameter_error=statistics.median(errs) if errs else None,
+        parameter_error_by_effect={e: (statistics.median(v), max(v), len(v)) for e, v in sorted(
+            _by_effect(rows).items())},
         median_heldout_rmse_drop=statistics.median(drops) if drops else None,
         per_kind={k: sum(x["exact"] for x in rows if x["kind"] == k) / max(1, sum(x["kind"] == k for x in rows))
                   for k in SETS},
+        immaterial=immaterial_tally(rows),
     )
+
+
+def _by_effect(rows) -> dict:
+    out = {}
+    for x in rows:
+        for e, v in x["param_errors_by_effect"].items():
+            out.setdefault(e, []).extend(v)
+    return out
+
+
+def immaterial_tally(rows) -> dict:
+    """How the candidates refused for materiality alone (supported by the data, too small to
+    add) relate to the truth: concealed effects the diagnosis missed but saw, and effects it saw
+    that were not concealed (the materiality rule's misses and its saves)."""
+    true, false = [], []
+    for x in rows:
+        for e in x["immaterial"]:
+            (true if e in x["concealed"] and e not in x["reported"] else false).append(f"{x['id']}:{e}")
+    return dict(concealed=true, not_concealed=false)
 
 
 def confusion(rows) -> str:
@@ -339,8 +366,10 @@ def main(argv=None) -> int:
             d = r.get("diagnosis")
             rep = ", ".join(m["effect"] for m in d["missing_physics"]) if d else f"FAILED: {r['stderr']}"
             redrawn = f"; {len(r['rejected'])} draw(s) before did not show" if r.get("rejected") else ""
+            small = f"; below materiality: {', '.join(r['immaterial'])}" if r.get("immaterial") else ""
             print(f"{r['id']:<16} concealed {sorted(r['effects']) or '-'}; reported {rep or '-'}"
-                  f" [{d['verdict'] if d else '-'}] ({r['make_s']:.0f} + {r['diagnose_s']:.0f} s{redrawn})", flush=True)
+                  f" [{d['verdict'] if d else '-'}] ({r['make_s']:.0f} + {r['diagnose_s']:.0f} s{redrawn}){small}",
+                  flush=True)
     wall = time.perf_counter() - t0
     s = score(results)
     print()
@@ -353,6 +382,8 @@ def main(argv=None) -> int:
     print(f"median parameter error:        {fmt(s['median_parameter_error'])}   (target <= 15%)")
     print(f"median held-out RMSE drop:     {fmt(s['median_heldout_rmse_drop'])}   (target >= 50%, non-null cases)")
     print("exact-set accuracy by kind:    " + ", ".join(f"{k} {fmt(v)}" for k, v in s["per_kind"].items()))
+    print("parameter error by effect:     " + ", ".join(f"{e} {fmt(med)} (max {fmt(mx)}, {n})"
+                                                       for e, (med, mx, n) in s["parameter_error_by_effect"].items()))
     redrawn = [r for r in results if r.get("rejected")]
     print(f"redrawn (a concealed effect changed the recording by < {VISIBLE:g} noise levels): {len(redrawn)} cases"
           + "".join(f"\n    {r['id']}: " + "; ".join(
@@ -361,6 +392,9 @@ def main(argv=None) -> int:
     vis = [v for r in results for v in r.get("visibility", {}).values()]
     if vis:
         print(f"visibility of concealed effects: min {min(vis):.1f}, median {statistics.median(vis):.1f} noise levels")
+    tally = s["immaterial"]
+    print(f"supported but below materiality (not reported): {len(tally['concealed'])} concealed and missed"
+          f" {tally['concealed'] or ''}, {len(tally['not_concealed'])} not concealed {tally['not_concealed'] or ''}")
     times = [x["seconds"] for x in s["rows"] if x["seconds"] is not None]
     if times:
         print(f"diagnose time per case:        median {statistics.median(times):.0f} s, max {max(times):.0f} s")
