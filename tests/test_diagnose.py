@@ -194,7 +194,9 @@ def test_stiction_that_stops_the_swings_early_is_found(tmp_path, case_id):
     at every reversal of the swings and delayed it, which the test bed's LuGre bristles do not
     (a reversal lasts too short a slide for them to load up).  Its width is now 2 V_EPS, where
     the law holds the joint.  With the old width case 14 fails here; case 13's extra stiffness
-    came third, beyond these two-effect settings (the benchmark shows it)."""
+    came third, beyond these two-effect settings (the benchmark shows it).  The breakaway
+    excess is found within a factor 2.5 of the truth (a memoryless law holds the joint only in
+    its creep band, where the bristles hold it in full)."""
     import sys
 
     sys.path.insert(0, str(REPO / "benchmarks"))
@@ -206,3 +208,7 @@ def test_stiction_that_stops_the_swings_early_is_found(tmp_path, case_id):
     assert sorted(m["effect"] for m in js["missing_physics"]) == ["coulomb_friction", "stiction"]
     tau_c = next(m for m in js["missing_physics"] if m["effect"] == "coulomb_friction")["parameters"]["tau_c"]
     assert tau_c == pytest.approx(case["effects"]["coulomb_friction"]["tau_c"], rel=0.25)
+    tau_s = next(m for m in js["missing_physics"] if m["effect"] == "stiction")["parameters"]["tau_s"]
+    # tau_s is the breakaway excess the law holds (0.47 and 0.88 N m against the truth's 0.50
+    # and 0.45); as the former hump amplitude it read 0.78 and 1.48, 1.6 and 3.3 times the truth
+    assert 0.4 < tau_s / case["effects"]["stiction"]["tau_s"] < 2.5

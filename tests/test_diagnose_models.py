@@ -47,7 +47,7 @@ def test_steer_stand_with_stiction_matches_drake_and_holds_off_rest():
     base = {"viscous_c": 0.1}
     spec_kw = dict(friction={"steer": "viscous"}, friction_params={"steer": {"c": 0.1}})
     rest = model_for("steer_stand").rest
-    both = {"coulomb_friction": {"tau_c": 0.5}, "stiction": {"tau_s": 0.6}}
+    both = {"coulomb_friction": {"tau_c": 0.5}, "stiction": {"tau_s": 0.36}}
     yr, yd = _compare("steer_stand", rest - 0.45, 8.0, both, base, spec_kw, 2.5e-4)
     assert np.max(np.abs(yr - yd)) < 3e-3
     _, yc = _compare("steer_stand", rest - 0.45, 8.0, {"coulomb_friction": {"tau_c": 0.5}}, base, spec_kw, 2.5e-4)

@@ -50,8 +50,8 @@ def test_an_effect_at_a_reducing_parameter_of_zero_is_exactly_its_simpler_entry(
     ("coulomb_friction", 0.0, 2.0, -0.45),
     ("coulomb_friction", 0.0, -2.0, 0.45),
     ("coulomb_friction", 0.3, 0.0, 0.0),
-    ("stiction", 0.0, fx.V_STRIBECK, -0.2 * math.exp(-1.0) * math.tanh(fx.V_STRIBECK / fx.V_EPS)),
-    ("stiction", 0.0, 1.0, -0.2 * math.exp(-(1.0 / fx.V_STRIBECK) ** 2)),
+    ("stiction", 0.0, fx.V_STRIBECK, -0.2 / 0.5936154838 * math.exp(-1.0) * math.tanh(fx.V_STRIBECK / fx.V_EPS)),
+    ("stiction", 0.0, 1.0, -0.2 / 0.5936154838 * math.exp(-(1.0 / fx.V_STRIBECK) ** 2)),
     ("quadratic_drag", 0.0, -2.0, 0.4),
     ("linear_stiffness", 0.1, 5.0, 0.2),
     ("cubic_stiffness", -0.2, 0.0, 0.04),
@@ -64,6 +64,17 @@ def test_an_effect_at_a_reducing_parameter_of_zero_is_exactly_its_simpler_entry(
 def test_laws_at_hand_values(name, q, qd, expected):
     got = fx.torque(name, np.array([q]), np.array([qd]), PARAMS[name], CONTEXT)[0]
     assert got == pytest.approx(expected, rel=1e-9, abs=1e-12)
+
+
+def test_stiction_adds_at_most_tau_s_to_kinetic_friction():
+    """tau_s is the breakaway excess the law can hold (comparable with a real contact's
+    F_s - F_c): the most the hump adds, reached in the creep band, not an amplitude it never
+    reaches (0.59 tau_s with the former parametrisation)."""
+    qd = np.linspace(-0.02, 0.02, 400001)
+    extra = np.abs(fx.stiction(0.0 * qd, qd, 0.37))
+    assert np.max(extra) == pytest.approx(0.37, rel=1e-8)
+    assert fx.V_EPS / 4 < abs(qd[np.argmax(extra)]) < fx.V_STRIBECK
+    assert np.max(extra[np.abs(qd) > 5 * fx.V_STRIBECK]) < 1e-9
 
 
 def test_com_offset_shifts_the_rest_angle_by_delta():

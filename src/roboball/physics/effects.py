@@ -27,9 +27,10 @@ Conventions and modelling choices
   not during the reversals of a swing.  A real contact's breakaway needs its asperities (LuGre's
   bristles) loaded, which a reversal, a slide of a few hundredths of a milliradian, does not
   do; a hump 20 mrad/s wide acted at every reversal, delayed it, and on the blind benchmark
-  made the diagnosis take stiction's phase error for a stiffness or a drag.  The law's holding
-  torque peaks at 0.59 tau_s (at 1 mrad/s) within the creep band, so a fitted tau_s reads high against
-  a breakaway that holds in full (README, Blind benchmark).
+  made the diagnosis take stiction's phase error for a stiffness or a drag.  tau_s is the most
+  the hump adds to kinetic friction (its peak, at 1 mrad/s): the shape exp(-x^2) tanh(2 x),
+  x = qd / V_STRIBECK, peaks at STICTION_PEAK = 0.594, and the law divides by it, so tau_s is
+  the breakaway excess the law can hold, comparable with a real contact's F_s - F_c.
 * com_offset is a geometric change: the centre of mass sits rotated by `delta` about the
   coordinate's axis from where the model puts it.  With gravity stiffness k_g = m g d (supplied
   by the experiment) the gravity torque becomes -k_g sin(q - delta) instead of -k_g sin(q); the
@@ -52,6 +53,15 @@ V_EPS = 1e-3          # rad/s: regularisation of sign(qd) for dry-friction-like 
 V_STRIBECK = 2 * V_EPS   # rad/s: width of the stiction (Stribeck) hump: the creep band
 
 
+def _hump_peak() -> float:
+    """Peak of the stiction hump's shape exp(-x^2) tanh(x V_STRIBECK / V_EPS) over x >= 0."""
+    x = np.linspace(0.0, 4.0, 400001)
+    return float(np.max(np.exp(-x * x) * np.tanh(x * V_STRIBECK / V_EPS)))
+
+
+STICTION_PEAK = _hump_peak()   # 0.5936: the stiction law's most torque per unit tau_s
+
+
 # ---- the laws -------------------------------------------------------------------------------
 def viscous_damping(q, qd, c, m=NP):
     """Torque proportional to speed: -c qd (c in N m s/rad)."""
@@ -64,9 +74,9 @@ def coulomb_friction(q, qd, tau_c, m=NP):
 
 
 def stiction(q, qd, tau_s, m=NP):
-    """Breakaway torque above kinetic friction: extra tau_s (N m) that acts only near rest."""
+    """Breakaway torque above kinetic friction: up to tau_s (N m) more, only near rest."""
     x = qd / V_STRIBECK
-    return -tau_s * m.exp(-x * x) * m.tanh(qd / V_EPS)
+    return -(tau_s / STICTION_PEAK) * m.exp(-x * x) * m.tanh(qd / V_EPS)
 
 
 def quadratic_drag(q, qd, c2, m=NP):
@@ -167,7 +177,9 @@ LIBRARY: dict[str, Effect] = {e.name: e for e in (
        [Param("tau_c", "N m", 0.0, 10.0, 0.3)],
        "amplitude falls linearly; swings stop off rest"),
     _e("stiction", stiction,
-       [Param("tau_s", "N m", 0.0, 10.0, 0.3)],
+       # typical size and bound of the peak (0.18 and 5.9 N m): the law's outputs of the former
+       # amplitude parametrisation (0.3 and 10), so the fits start from the same grid
+       [Param("tau_s", "N m", 0.0, 10.0 * STICTION_PEAK, 0.3 * STICTION_PEAK)],
        "swings stop earlier and further from rest than kinetic friction alone allows"),
     _e("quadratic_drag", quadratic_drag,
        [Param("c2", "N m s^2/rad^2", 0.0, 20.0, 0.2)],
