@@ -284,7 +284,8 @@ def report_md(d: Diagnosis, js: dict, located_base, located_final, figures, drak
                               f"{d.settings.n_blocks} contiguous time blocks, each predicted by a fit to the others"),
               "", "![recording, baseline and augmented model in Drake](overlay.png)", ""]
     lines += ["## Selection", "", "Each round adds every remaining candidate in turn and refits by simulation "
-              "error; the best two by fit are cross-validated. A candidate qualifies when it lowers the BIC by "
+              f"error; the best {d.settings.top_k} by fit are cross-validated. A candidate qualifies when it "
+              "lowers the BIC by "
               f"more than {d.settings.bic_min:g}, lowers the held-out RMS by more than {d.settings.cv_gain:.0%}, "
               f"lowers the held-out mean square by at least {d.settings.material_noise:g} noise variances "
               "(materiality), and the 95% intervals of its magnitude (and of any parameter at whose zero it "

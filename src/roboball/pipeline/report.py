@@ -19,8 +19,8 @@ STAGES = ("uncertainty_report",)
 
 def _immaterial(details_path) -> str:
     """The candidates a diagnosis found supported by the data but below materiality, read from
-    its details.json when there is one: "rolling_resistance (tau_rr = 1.13 [0.91, 1.35]; lowers
-    the held-out mean square by 0.9 noise variances)"."""
+    its details.json when there is one, e.g. at 10.3 kPa "rolling_resistance (tau_rr = 0.342
+    [0.152, 0.533]; lowers the held-out mean square by 0.9 noise variances)"."""
     path = Path(details_path)
     if not path.exists():
         return ""
