@@ -258,9 +258,10 @@ class Selector:
         """Mean squared residual the model removes relative to `reference`, in noise variances."""
         return (reference.full.rss - sc.full.rss) / sc.full.n / self.prep.noise ** 2
 
-    def failures(self, sc: Scored, reference: Scored, base: Scored) -> list:
+    def failures(self, sc: Scored, reference: Scored, base: Scored, ci: dict | None = None) -> list:
         """Every condition of the keep rule that `sc` fails against `reference`, in the rule's
-        order, as (condition, why) with condition "bic", "heldout", "material" or "itself"."""
+        order, as (condition, why) with condition "bic", "heldout", "material" or "itself"
+        (`ci`: sc's 95% intervals, when the caller has them)."""
         s = self.s
         out = []
         if not sc.delta_bic < -s.bic_min:
@@ -271,7 +272,7 @@ class Selector:
         gain = self.heldout_gain(sc, reference)
         if not gain >= need:
             out.append(("material", f"lowers the held-out mean square by {gain:.3g} noise variances, below {need:.3g}"))
-        why = self.not_itself(sc, sc.effects[-1])
+        why = self.not_itself(sc, sc.effects[-1], ci)
         if why:
             out.append(("itself", why))
         return out
@@ -307,12 +308,12 @@ class Selector:
             out[key] = (p.values[key] - 1.96 * sd, p.values[key] + 1.96 * sd)
         return out
 
-    def not_itself(self, sc: Scored, effect: str) -> str:
+    def not_itself(self, sc: Scored, effect: str, ci: dict | None = None) -> str:
         """Why the fitted `effect` is not shown to be itself ("" when it is): the 95% interval
         of its magnitude includes zero, or that of a parameter at whose zero it becomes a
         simpler vocabulary entry (backlash whose free play may be zero is linear stiffness,
         which is then the effect to report: fewer parameters, the same fit)."""
-        ci = self.ci95(sc)
+        ci = ci if ci is not None else self.ci95(sc)
         eff = fx.LIBRARY[effect]
         simpler = dict(eff.reduces_to)
         for name in eff.defining_params():
@@ -380,8 +381,8 @@ class Selector:
                             delta_bic=sc.delta_bic, rho1=sc.rho1, explained=self.explained(sc, current),
                             params={k: p.values[k] for k in keys})
                 if sc in top:
-                    fails = self.failures(sc, current, base)
                     ci = self.ci95(sc)
+                    fails = self.failures(sc, current, base, ci)
                     info.update(qualifies=not fails, reason=fails[0][1] if fails else "kept",
                                 failed=[name for name, _ in fails], heldout_gain=self.heldout_gain(sc, current),
                                 ci95={k: list(ci[k]) for k in keys})
