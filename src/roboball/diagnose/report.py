@@ -218,6 +218,13 @@ def _md_table(rows, header) -> str:
     return "\n".join(lines)
 
 
+def _param_cells(effect: str, name: str, value, ci) -> tuple:
+    """The "parameter" and "95% interval" cells of an effect's parameter: "c = 3.83 N m s/rad",
+    "[3.82, 3.841]"."""
+    unit = fx.LIBRARY[effect].units()[name]
+    return f"{name} = {_fmt(value)} {unit}", f"[{_fmt(ci[0])}, {_fmt(ci[1])}]"
+
+
 def _fmt(x, n=4):
     if x is None or (isinstance(x, float) and not math.isfinite(x)):
         return "-"
@@ -249,9 +256,7 @@ def report_md(d: Diagnosis, js: dict, located_base, located_final, figures, drak
         rows = []
         for m in js["missing_physics"]:
             for p, val in m["parameters"].items():
-                unit = fx.LIBRARY[m["effect"]].units()[p]
-                lo, hi = m["ci95"][p]
-                rows.append((m["effect"], m["dof"], f"{p} = {_fmt(val)} {unit}", f"[{_fmt(lo)}, {_fmt(hi)}]",
+                rows.append((m["effect"], m["dof"], *_param_cells(m["effect"], p, val, m["ci95"][p]),
                              _fmt(m["delta_bic"], 5), m["explains"]))
         lines.append(_md_table(rows, ["effect", "dof", "parameter", "95% interval", "delta BIC", "signature"]))
     else:
@@ -259,12 +264,9 @@ def report_md(d: Diagnosis, js: dict, located_base, located_final, figures, drak
     if d.immaterial:
         rows = []
         for i in d.immaterial:
-            e = i["effect"]
-            units = fx.LIBRARY[e].units()
             for key, val in i["params"].items():
-                name = key.split(".", 1)[1]
-                lo, hi = i["ci95"][key]
-                rows.append((e, d.model.dof, f"{name} = {_fmt(val)} {units[name]}", f"[{_fmt(lo)}, {_fmt(hi)}]",
+                rows.append((i["effect"], d.model.dof, *_param_cells(i["effect"], key.split(".", 1)[1], val,
+                                                                     i["ci95"][key]),
                              _fmt(i["delta_bic"], 5), _fmt(i["heldout_gain"], 3)))
         lines += ["", "### Supported by the data, below materiality", "",
                   "These candidates lower the BIC and the held-out error and their intervals exclude zero, "
