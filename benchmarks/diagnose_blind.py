@@ -274,46 +274,40 @@ def score(results: list) -> dict:
         concealed = set(r["effects"])
         d = r.get("diagnosis")
         reported = set(m["effect"] for m in d["missing_physics"]) if d else {"<failed>"}
-        errs, by_effect = [], {}
+        errs = {}                   # effect -> relative errors of its parameters
         if d:
             for m in d["missing_physics"]:
                 if m["effect"] in r["effects"]:
                     for p, truth in r["effects"][m["effect"]].items():
                         if p in m["parameters"] and truth != 0:
-                            errs.append(abs(m["parameters"][p] - truth) / abs(truth))
-                            by_effect.setdefault(m["effect"], []).append(errs[-1])
+                            errs.setdefault(m["effect"], []).append(abs(m["parameters"][p] - truth) / abs(truth))
         drop = None
         if d and concealed:
             f = d["fit"]
             drop = 1.0 - f["rmse_heldout_after"] / f["rmse_heldout_before"]
         rows.append(dict(id=r["id"], kind=r["kind"], concealed=sorted(concealed), reported=sorted(reported),
                          immaterial=sorted(r.get("immaterial", [])),
-                         exact=concealed == reported, param_errors=errs, param_errors_by_effect=by_effect, drop=drop,
+                         exact=concealed == reported, param_errors=errs, drop=drop,
                          verdict=d["verdict"] if d else "failed", seconds=r.get("diagnose_s")))
     null = [x for x in rows if not x["concealed"]]
     nonnull = [x for x in rows if x["concealed"]]
-    errs = [e for x in rows for e in x["param_errors"]]
+    by_effect = {}
+    for x in rows:
+        for e, v in x["param_errors"].items():
+            by_effect.setdefault(e, []).extend(v)
+    errs = [e for v in by_effect.values() for e in v]
     drops = [x["drop"] for x in nonnull if x["drop"] is not None]
     return dict(
         rows=rows, n=len(rows),
         exact_set_accuracy=sum(x["exact"] for x in rows) / len(rows),
         null_false_positive_rate=(sum(bool(x["reported"]) for x in null) / len(null)) if null else None,
         median_parameter_error=statistics.median(errs) if errs else None,
-        parameter_error_by_effect={e: (statistics.median(v), max(v), len(v)) for e, v in sorted(
-            _by_effect(rows).items())},
+        parameter_error_by_effect={e: (statistics.median(v), max(v), len(v)) for e, v in sorted(by_effect.items())},
         median_heldout_rmse_drop=statistics.median(drops) if drops else None,
         per_kind={k: sum(x["exact"] for x in rows if x["kind"] == k) / max(1, sum(x["kind"] == k for x in rows))
                   for k in SETS},
         immaterial=immaterial_tally(rows),
     )
-
-
-def _by_effect(rows) -> dict:
-    out = {}
-    for x in rows:
-        for e, v in x["param_errors_by_effect"].items():
-            out.setdefault(e, []).extend(v)
-    return out
 
 
 def immaterial_tally(rows) -> dict:
