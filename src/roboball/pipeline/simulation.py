@@ -71,6 +71,15 @@ def shell_sim(releases: str, regression: str, contact: str, out_csv: str, modulu
 SPEED_FLOOR_RAD_S = 0.5
 
 
+def _relative_errors(w_measured, w_sim, floor: float) -> np.ndarray:
+    """Eq. 12's samples, (w_s - w_e) / w_e, at the samples whose measured speed reaches `floor`
+    (the first instants after release, where w_e ~ 0 and the ratio is undefined, are left out)."""
+    w_e = np.asarray(w_measured, float)
+    w_s = np.asarray(w_sim, float)
+    ok = np.abs(w_e) >= floor
+    return (w_s[ok] - w_e[ok]) / w_e[ok]
+
+
 def pme(w_measured, w_sim, floor: float = SPEED_FLOOR_RAD_S) -> float:
     """Point mean error (eq. 12) in percent, over-predicting models positive.
 
@@ -80,12 +89,8 @@ def pme(w_measured, w_sim, floor: float = SPEED_FLOOR_RAD_S) -> float:
         PME = 100/N sum (w_s - w_e) / w_e.
     Samples where the measured speed is below `floor` (the first instants after release,
     where w_e ~ 0) are left out, since the ratio is undefined there."""
-    w_e = np.asarray(w_measured, float)
-    w_s = np.asarray(w_sim, float)
-    ok = np.abs(w_e) >= floor
-    if ok.sum() == 0:
-        return float("nan")
-    return float(100.0 * np.mean((w_s[ok] - w_e[ok]) / w_e[ok]))
+    rel = _relative_errors(w_measured, w_sim, floor)
+    return float(100.0 * np.mean(rel)) if rel.size else float("nan")
 
 
 def speed_errors(w_measured, w_sim, floor: float = SPEED_FLOOR_RAD_S) -> dict:
@@ -96,12 +101,13 @@ def speed_errors(w_measured, w_sim, floor: float = SPEED_FLOOR_RAD_S) -> dict:
       one does not;
     * `rmse_rad_s`: the RMS of w_s - w_e over the whole scored window (no floor), the quantity
       the diagnosis fits."""
+    rel = _relative_errors(w_measured, w_sim, floor)
     w_e = np.asarray(w_measured, float)
     w_s = np.asarray(w_sim, float)
-    ok = np.abs(w_e) >= floor
-    mape = float(100.0 * np.mean(np.abs((w_s[ok] - w_e[ok]) / w_e[ok]))) if ok.any() else float("nan")
-    rmse = float(np.sqrt(np.mean((w_s - w_e) ** 2))) if w_e.size else float("nan")
-    return {"pme_percent": pme(w_e, w_s, floor), "mape_percent": mape, "rmse_rad_s": rmse}
+    nan = float("nan")
+    return {"pme_percent": float(100.0 * np.mean(rel)) if rel.size else nan,
+            "mape_percent": float(100.0 * np.mean(np.abs(rel))) if rel.size else nan,
+            "rmse_rad_s": float(np.sqrt(np.mean((w_s - w_e) ** 2))) if w_e.size else nan}
 
 
 def friction_params_of(law):
