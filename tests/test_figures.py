@@ -1,6 +1,8 @@
 """Fig. 13/14 and the PME table from a ramp summary (roboball.pipeline.figures.fig13_14)."""
 import pandas as pd
+import pytest
 
+from roboball.errors import RoboballError
 from roboball.pipeline.figures import fig13_14
 
 
@@ -32,14 +34,18 @@ def test_fig13_14_draw_every_model_and_a_two_decimal_table(tmp_path):
     assert {"mape_mean_percent", "rmse_mean_rad_s"} <= set(table.columns)
 
 
-def test_table_without_unsigned_errors_keeps_the_pme_columns(tmp_path):
-    """Summaries written before the unsigned errors existed still make the table."""
+def test_a_summary_without_the_unsigned_errors_is_a_one_line_error_and_writes_nothing(tmp_path):
+    """The table's unsigned errors are required: a summary without them (written by an older
+    roboball) is refused with the file and the missing columns named, and no figure or table
+    is left behind."""
     src = pd.read_csv(_summary(tmp_path / "s.csv")).drop(columns=["mape_percent", "rmse_rad_s"])
     src.to_csv(tmp_path / "old.csv", index=False)
     out = [str(tmp_path / f) for f in ("fig13.png", "fig14.png", "t.csv", "t.md")]
-    fig13_14(str(tmp_path / "old.csv"), *out)
-    md = (tmp_path / "t.md").read_text()
-    assert "| diagnosed | 0.33 |" in md and "RMSE" not in md
+    with pytest.raises(RoboballError) as err:
+        fig13_14(str(tmp_path / "old.csv"), *out)
+    msg = str(err.value)
+    assert "\n" not in msg and "old.csv" in msg and "mape_percent, rmse_rad_s" in msg
+    assert sorted(f.name for f in tmp_path.iterdir()) == ["old.csv", "s.csv"]
 
 
 def test_posterior_whiskers_need_not_contain_the_bar(tmp_path):

@@ -8,11 +8,14 @@ import numpy as np
 import pandas as pd
 
 from ..atomic import write_csv_atomic, write_text_atomic
+from ..errors import RoboballError
 # The style, the atomic saver and the ingest QC plot live in .plotting, so that editing a figure
 # here reruns the figure rules only (the ingest stage imports .plotting, not this module).
 from .plotting import CONTACT_COLOURS, plt, save
 
 STAGES = ("fig10", "fig11", "fig13_14", "table2")
+# Columns of the ramp summary that fig13_14 needs (roboball.pipeline.simulation.speed_errors).
+SUMMARY_COLUMNS = frozenset({"contact", "pressure_kpa", "pme_percent", "mape_percent", "rmse_rad_s"})
 
 
 def _reg(table):
@@ -128,6 +131,9 @@ def fig13_14(summary: str, out13: str, out14: str, out_csv: str, out_md: str) ->
     """Fig. 13 (PME per pressure and model, spread over runs, posterior intervals) and Fig. 14
     (averaged over pressures); the PME table as CSV and Markdown."""
     s = pd.read_csv(summary)
+    missing = sorted(SUMMARY_COLUMNS - set(s.columns))
+    if missing:
+        raise RoboballError(f"{summary}: missing column(s) {', '.join(missing)} (written by roboball.pipeline.simulation)")
     contacts = [c for c in ["point", "injected", "hydroelastic", "diagnosed"] if c in set(s.contact)]
     agg = s.groupby(["contact", "pressure_kpa"]).agg(pme_mean_percent=("pme_percent", "mean"),
                                                       pme_min_percent=("pme_percent", "min"),
@@ -137,10 +143,10 @@ def fig13_14(summary: str, out13: str, out14: str, out_csv: str, out_md: str) ->
         d = s.groupby(["contact", "pressure_kpa"]).agg(pme_post_low_percent=("pme_draw_low", "min"),
                                                         pme_post_high_percent=("pme_draw_high", "max")).reset_index()
         agg = agg.merge(d, on=["contact", "pressure_kpa"], how="left")
-    if "mape_percent" in s and "rmse_rad_s" in s:    # errors that cannot cancel (speed_errors), means over runs
-        d = s.groupby(["contact", "pressure_kpa"]).agg(mape_mean_percent=("mape_percent", "mean"),
-                                                        rmse_mean_rad_s=("rmse_rad_s", "mean")).reset_index()
-        agg = agg.merge(d, on=["contact", "pressure_kpa"], how="left")
+    # errors that cannot cancel (speed_errors), means over runs
+    d = s.groupby(["contact", "pressure_kpa"]).agg(mape_mean_percent=("mape_percent", "mean"),
+                                                    rmse_mean_rad_s=("rmse_rad_s", "mean")).reset_index()
+    agg = agg.merge(d, on=["contact", "pressure_kpa"], how="left")
     write_csv_atomic(agg, out_csv)
     pressures = sorted(s.pressure_kpa.unique())
     # Two panels: every model, and below it the models within DETAIL_PERCENT of the recording,
@@ -193,35 +199,24 @@ def fig13_14(summary: str, out13: str, out14: str, out_csv: str, out_md: str) ->
     ax.set_ylabel("drive-speed PME averaged over pressures (%)")
     ax.set_title("Fig. 14: averaged drive speed error")
     save(fig, out14)
-    extra = "mape_mean_percent" in agg and "rmse_mean_rad_s" in agg
-    lines = ["# Drive-speed point mean error (eq. 12), percent; + = model faster than the robot", ""]
-    if extra:
-        lines += ["Eq. 12 is a signed mean: a model that runs fast early and slow late can score near zero. "
-                  "`mean |error|` is the same mean over the same samples of the absolute relative error, and "
-                  "`RMSE` the RMS drive-rate error over the whole descent (rad/s); both are means over runs.", ""]
-    head = "| contact | pressure (kPa) | runs | mean PME | min | max | posterior 95% |"
-    rule = "|---|---|---|---|---|---|---|"
-    if extra:
-        head += " mean \\|error\\| (%) | RMSE (rad/s) |"
-        rule += "---|---|"
-    lines += [head, rule]
+    lines = ["# Drive-speed point mean error (eq. 12), percent; + = model faster than the robot", "",
+              "Eq. 12 is a signed mean: a model that runs fast early and slow late can score near zero. "
+              "`mean |error|` is the same mean over the same samples of the absolute relative error, and "
+              "`RMSE` the RMS drive-rate error over the whole descent (rad/s); both are means over runs.", "",
+              "| contact | pressure (kPa) | runs | mean PME | min | max | posterior 95% | mean \\|error\\| (%) | RMSE (rad/s) |",
+              "|---|---|---|---|---|---|---|---|---|"]
     for r in agg.itertuples():
         post = (f"[{r.pme_post_low_percent:.1f}, {r.pme_post_high_percent:.1f}]"
                 if hasattr(r, "pme_post_low_percent") and np.isfinite(r.pme_post_low_percent) else "-")
         line = (f"| {r.contact} | {r.pressure_kpa:g} | {r.runs} | {r.pme_mean_percent:.2f} | "
-                f"{r.pme_min_percent:.2f} | {r.pme_max_percent:.2f} | {post} |")
-        if extra:
-            line += f" {r.mape_mean_percent:.2f} | {r.rmse_mean_rad_s:.4f} |"
+                f"{r.pme_min_percent:.2f} | {r.pme_max_percent:.2f} | {post} | "
+                f"{r.mape_mean_percent:.2f} | {r.rmse_mean_rad_s:.4f} |")
         lines.append(line)
-    if extra:
-        overall = s.groupby("contact")[["mape_percent", "rmse_rad_s"]].mean().reindex(contacts)
-        lines += ["", "| contact | mean PME over all runs (%) | mean \\|error\\| (%) | RMSE (rad/s) |",
-                  "|---|---|---|---|"]
-        lines += [f"| {c} | {m[c]:.2f} | {overall.mape_percent[c]:.2f} | {overall.rmse_rad_s[c]:.4f} |"
-                  for c in contacts]
-    else:
-        lines += ["", "| contact | mean PME over all runs (%) |", "|---|---|"]
-        lines += [f"| {c} | {m[c]:.2f} |" for c in contacts]
+    overall = s.groupby("contact")[["mape_percent", "rmse_rad_s"]].mean().reindex(contacts)
+    lines += ["", "| contact | mean PME over all runs (%) | mean \\|error\\| (%) | RMSE (rad/s) |",
+              "|---|---|---|---|"]
+    lines += [f"| {c} | {m[c]:.2f} | {overall.mape_percent[c]:.2f} | {overall.rmse_rad_s[c]:.4f} |"
+              for c in contacts]
     write_text_atomic(out_md, "\n".join(lines) + "\n")
 
 
