@@ -119,7 +119,9 @@ def _figures(d: Diagnosis, out: Path, drake_base, drake_aug, located_base, locat
     prep = d.prep
     wins = prep.windows
     n = len(wins)
-    fig, axes = plt.subplots(2, n, figsize=(5.2 * n, 6.4), squeeze=False, sharex="col",
+    # layout="none", then tight_layout: these figures look the same whatever layout an importer
+    # of matplotlib made the default (roboball.pipeline.plotting makes it constrained)
+    fig, axes = plt.subplots(2, n, figsize=(5.2 * n, 6.4), squeeze=False, sharex="col", layout="none",
                              gridspec_kw={"height_ratios": [2, 1.3]})
     for j, w in enumerate(wins):
         ax, axr = axes[0, j], axes[1, j]
@@ -156,7 +158,7 @@ def _figures(d: Diagnosis, out: Path, drake_base, drake_aug, located_base, locat
     plt.close(fig)
     files.append(f.name)
 
-    fig, ax = plt.subplots(figsize=(8, 3.6))
+    fig, ax = plt.subplots(figsize=(8, 3.6), layout="none")
     regs = [r["regime"] for r in located_base.regimes]
     x = np.arange(len(regs))
     ax.bar(x - 0.27, [r["share_of_samples"] for r in located_base.regimes], 0.27, color="0.7", label="share of samples")
@@ -176,7 +178,7 @@ def _figures(d: Diagnosis, out: Path, drake_base, drake_aug, located_base, locat
     plt.close(fig)
     files.append(f.name)
 
-    fig, ax = plt.subplots(figsize=(10, 3.2))
+    fig, ax = plt.subplots(figsize=(10, 3.2), layout="none")
     for w in wins:
         ax.plot(w.t, (d.baseline.full.pred[w.index] - w.y) ** 2, color="tab:red", lw=0.7)
         if d.chosen:
