@@ -332,10 +332,12 @@ class Engine:
         best = []
         for start, cands, used, prob in spans:
             costs = np.zeros(len(cands))
-            for i in range(len(cands) * len(used)):
-                w = used[i % len(used)]
-                m = prob.masks[w]
-                costs[i // len(used)] += float(np.sum((outs[start + i][0] - self.windows[w].y)[m] ** 2))
+            # a start that sends the model far off (finite but ~1e160) costs inf, which argmin skips
+            with np.errstate(over="ignore"):
+                for i in range(len(cands) * len(used)):
+                    w = used[i % len(used)]
+                    m = prob.masks[w]
+                    costs[i // len(used)] += float(np.sum((outs[start + i][0] - self.windows[w].y)[m] ** 2))
             j = int(np.argmin(costs))
             best.append(dict(cands[j], _cost=float(costs[j])))
         return best
