@@ -324,9 +324,6 @@ class Selector:
                 return "95% interval of its magnitude includes zero"
         return ""
 
-    def significant(self, sc: Scored, effect: str) -> bool:
-        return not self.not_itself(sc, effect)
-
     # ---- the selection ----------------------------------------------------------------------
     def run(self) -> Diagnosis:
         t_start = time.perf_counter()
@@ -476,7 +473,7 @@ class Selector:
             self.cross_validate([cand], cofit=True)
             self.score(cand, current)
             if cand.delta_bic < -s.bic_min and cand.cv_rmse <= current.cv_rmse and \
-                    self.significant(cand, cand.effects[-1]):
+                    not self.not_itself(cand, cand.effects[-1]):
                 out = next(e for e in chosen if e not in cand.effects)
                 self.log(f"swap: {out} -> {cand.effects[-1]} (dBIC {cand.delta_bic:.1f}, held-out "
                          f"{cand.cv_rmse:.4g} vs {current.cv_rmse:.4g})")
