@@ -40,6 +40,17 @@ def test_steer_stand_with_dry_friction_and_com_offset_matches_drake():
     assert abs(yd[-1] - rest) > 0.01
 
 
+def test_drive_stand_with_dry_friction_and_com_offset_matches_drake():
+    """The drive stand's reduced model (the pendulum about the driveshaft) against Drake's
+    drive-stand scenario, with the same tolerance as the steer stand: 3 mrad over 6 s."""
+    effects = {"coulomb_friction": {"tau_c": 0.5}, "com_offset": {"delta": 0.04}}
+    yr, yd = _compare("drive_stand", 0.8, 6.0, effects, {"viscous_c": 0.3},
+                      dict(friction={"drive": "viscous"}, friction_params={"drive": {"c": 0.3}}), 2.5e-4)
+    assert np.max(np.abs(yr - yd)) < 3e-3
+    rest = model_for("drive_stand").rest
+    assert abs(yd[-1] - rest) > 0.01                       # it stops off rest: the effects act
+
+
 def test_steer_stand_with_stiction_matches_drake_and_holds_off_rest():
     """The breakaway torque holds the pendulum where kinetic friction alone would let it slide
     on: the reduced model and Drake agree within 3 mrad over 8 s, both come to rest, and with

@@ -131,6 +131,30 @@ def test_default_step_is_accurate_for_table1_friction():
     assert np.max(np.abs(_reduced("coulomb_viscous", cv, 1.2) - ref)) < 5e-4
 
 
+@pytest.mark.parametrize("kind, joint, q0", [("steer_stand", "steer", 0.8), ("drive_stand", "drive", 0.7)])
+@pytest.mark.parametrize("law", ["viscous", "coulomb_viscous", "majd"])
+def test_the_mcmc_forward_model_agrees_with_drake(kind, joint, q0, law):
+    """The friction posteriors run this model, not Drake; Fig. 7/8 and the ramp runs use Drake.
+    With Table I friction, 4 s of swing: within 1.5 mrad of Drake's stand scenario at a
+    0.25 ms step (measured 0.43-0.57 mrad, 1.7-2.3 mrad at Drake's default 1 ms; the sensors'
+    quantum is 1 mrad), while 10% more of the law's main term (c, mu_d or f_c) moves the
+    reduced model 8-38 mrad away from Drake."""
+    from roboball.sim.plant import SimSpec
+    from roboball.sim.scenarios import simulate
+
+    params = friction.table1_params(ROBOT, law, joint)
+    spec = SimSpec(kind=kind, friction={joint: law}, friction_params={joint: params}, dt=2.5e-4)
+    df = simulate(spec, q0, 4.0, sample_rate_hz=100)
+    t, y_drake = df.time_s.to_numpy(), df[f"{joint}_angle_rad"].to_numpy()
+
+    def reduced(p):
+        return R.simulate_stand(kind, t, q0, 0.0, law, {k: np.array([v]) for k, v in p.items()}, t0=0.0)[0]
+
+    assert np.max(np.abs(reduced(params) - y_drake)) < 1.5e-3
+    main = {"viscous": "c", "coulomb_viscous": "mu_d", "majd": "f_c"}[law]
+    assert np.max(np.abs(reduced({**params, main: 1.1 * params[main]}) - y_drake)) > 4.5e-3
+
+
 def test_stiff_stiction_sticks_without_spurious_creep():
     """Majd with omega_c = 1e-4 rad/s: slope 8e3 N m s/rad at rest, dt * slope / I = 31 at 2.5 ms.
     Plain RK4 chatters across zero speed and creeps ten times too fast; the implicit stiction
