@@ -136,9 +136,14 @@ def test_blank_lines_and_missing_final_newline():
 
 
 def test_ramp_default_angle_and_extra_keys():
+    from roboball.config import load_robot
+
     rec = read_recording(CORPUS / "ok_ramp_default_angle.csv")
     assert rec.kind == "ramp" and rec.main_signal() == "drive_rate_rad_s"
     assert rec.ramp_angle_deg == 16.0 and rec.meta["ramp_angle_deg_source"] == "default"
+    # the reader's default is the robot facts' ramp (kept as a literal so that reading a
+    # recording does not depend on configs/robot.yaml undeclared)
+    assert rec.ramp_angle_deg == load_robot().ramp_angle_deg
     assert rec.ramp_exit_s == 0.15
     assert rec.meta["operator"] == "jd"  # unknown keys are preserved
     # the drive joint is continuous: 12.7 rad of drive angle on a ramp is not "degrees"

@@ -20,10 +20,20 @@ from .config import RobotFacts
 class ShellTags:
     """Contact properties written onto the bedliner collision geometry."""
 
-    hydro_modulus: float = 1.8e6          # Pa
-    hunt_crossley: float = 0.5            # s/m
-    mu: float = 0.2
-    resolution_hint: float = 0.1          # m
+    hydro_modulus: float                  # Pa
+    hunt_crossley: float                  # s/m
+    mu: float
+    resolution_hint: float                # m
+
+    @classmethod
+    def of(cls, robot: RobotFacts) -> "ShellTags":
+        """The robot facts' own values (hydroelastic_defaults, the shell's ground friction and
+        resolution hint): the tags of a URDF exported without a simulation's contact model."""
+        d = robot.data
+        return cls(hydro_modulus=float(d["hydroelastic_defaults"]["modulus_pa"]),
+                   hunt_crossley=float(d["hydroelastic_defaults"]["hunt_crossley_s_m"]),
+                   mu=float(d["shell"]["ground_friction"]),
+                   resolution_hint=float(d["shell"]["hydroelastic_resolution_hint_m"]))
 
 
 def _fmt(x: float) -> str:
@@ -59,7 +69,7 @@ def make_urdf(robot: RobotFacts, fixed_joints=(), root: str = "pitch_center",
     fixed_joints: names of joints ('steer', 'drive') emitted as fixed joints.
     root: 'pitch_center' (floating robot, steer stand) or 'pipe_assembly' (drive stand).
     """
-    shell = shell or ShellTags()
+    shell = shell or ShellTags.of(robot)
     if root not in ("pitch_center", "pipe_assembly"):
         raise ValueError(f"unsupported root link '{root}'")
     bad = set(fixed_joints) - set(robot.joints)
