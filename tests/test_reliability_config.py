@@ -60,6 +60,9 @@ BAD_ROBOT = {  # case -> (path in robot.yaml, new value, field named, words in t
     "impossible_inertia": (("links", "pendulum", "inertia_kg_m2"), [0.5, 0.01, 0.01], "links.pendulum.inertia_kg_m2",
                            "impossible for a rigid body"),
     "com_above_centre": (("links", "pendulum", "com_m"), [0.0, 0.0, 0.4], "links", "no rest"),
+    # NaN passes every JSON-Schema bound (each comparison with it is false)
+    "nan_mass": (("links", "pendulum", "mass_kg"), float("nan"), "links.pendulum.mass_kg", "not a finite number"),
+    "infinite_radius": (("shell", "radius_m"), float("inf"), "shell.radius_m", "not a finite number"),
 }
 
 
