@@ -186,3 +186,17 @@ def test_pipeline_figures_go_through_scratch_files_named_tmp(tmp_path, monkeypat
     assert len(scratch) == 2 and all(n.startswith(".fig99_test.") and n.endswith(".tmp") for n in scratch), scratch
     assert sorted(p.name for p in tmp_path.iterdir()) == ["fig99_test.pdf", "fig99_test.png"]
     assert (tmp_path / "fig99_test.pdf").read_bytes()[:4] == b"%PDF"
+
+
+def test_a_folder_where_a_file_should_go_is_refused_naming_it(tmp_path):
+    """The rename would fail naming the scratch file; the writers name the path given instead,
+    and stage nothing."""
+    from roboball.atomic import write_text_atomic, write_texts_atomic
+
+    folder = tmp_path / "out.csv"
+    folder.mkdir()
+    for write in (lambda: write_text_atomic(folder, "x"), lambda: write_texts_atomic([(tmp_path / "a.csv", "a"), (folder, "b")])):
+        with pytest.raises(IsADirectoryError) as err:
+            write()
+        assert err.value.filename == str(folder) and "is a folder" in err.value.strerror
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.csv"] and not any(folder.iterdir())

@@ -51,3 +51,15 @@ def test_diagnose_usage_mistakes(tmp_path):
     r = diagnose(CORPUS / "ok_crlf.csv", "--out", tmp_path / "out", "--kind", "stear_stand")
     assert r.returncode == 2 and r.stderr.count("\n") == 1 and "unknown kind 'stear_stand'" in r.stderr
     assert not (tmp_path / "out").exists()
+
+
+def test_an_output_path_that_is_a_file_is_refused_before_the_work(tmp_path):
+    """--out names a folder: a file there, or a file above it, is refused in one line naming it,
+    before the recording is diagnosed, and the file is left as it was."""
+    blocker = tmp_path / "taken"
+    blocker.write_text("keep me")
+    for out, words in ((blocker, "taken: is a file; give a folder"),
+                       (blocker / "sub", "taken: is a file, so")):
+        r = diagnose(CORPUS / "ok_crlf.csv", "--out", out, "--no-drake")
+        assert r.returncode == 2 and words in one_error_line(r), r.stderr
+    assert blocker.read_text() == "keep me"

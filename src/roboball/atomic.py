@@ -15,6 +15,7 @@ hash.
 from __future__ import annotations
 
 import contextlib
+import errno
 import csv
 import io
 import json
@@ -46,6 +47,29 @@ def _current_umask() -> int:
     return mask
 
 
+def _not_a_folder(path: Path) -> None:
+    """Refuse a target that is an existing folder before anything is staged (the rename would
+    fail naming the temporary file, not the path the user gave)."""
+    if path.is_dir():
+        raise IsADirectoryError(errno.EISDIR, "is a folder; give a file name", str(path))
+
+
+def output_folder(path: str | os.PathLike, create: bool = True) -> Path:
+    """`path` as an output folder: refused when it, or a folder above it, is a file; else
+    created (with `create`; a command checks first, before any work, and creates the folder
+    only when it has something to write)."""
+    path = Path(path)
+    for p in (path, *path.parents):
+        if p.exists():
+            if not p.is_dir():
+                why = "is a file; give a folder for the output" if p == path else f"is a file, so {path} cannot be a folder"
+                raise NotADirectoryError(errno.ENOTDIR, why, str(p))
+            break
+    if create:
+        path.mkdir(parents=True, exist_ok=True)
+    return path
+
+
 @contextlib.contextmanager
 def atomic_write(path: str | os.PathLike, mode: str = "w", encoding: str = "utf-8") -> Iterator[Any]:
     """Open a temporary file next to `path`; on success move it over `path` atomically.
@@ -57,6 +81,7 @@ def atomic_write(path: str | os.PathLike, mode: str = "w", encoding: str = "utf-
     if mode not in ("w", "wb"):
         raise ValueError(f"atomic_write: unsupported mode {mode!r} (use 'w' or 'wb')")
     path = Path(path)
+    _not_a_folder(path)
     directory = path.parent if str(path.parent) else Path(".")
     directory.mkdir(parents=True, exist_ok=True)
     fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
@@ -102,6 +127,8 @@ def write_texts_atomic(files: list[tuple[str | os.PathLike, str]]) -> list[Path]
     refuse), never new data with old metadata.  On an exception before the renames nothing
     changes.  Returns the paths."""
     staged: list[tuple[str, Path]] = []
+    for path, _ in files:
+        _not_a_folder(Path(path))
     try:
         for path, text in files:
             path = Path(path)

@@ -15,6 +15,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
+from ..atomic import output_folder
 from ..cli import register_command
 from ..errors import RoboballError
 
@@ -44,6 +45,7 @@ def cmd_diagnose(args) -> int:
     for path in args.recording:
         if not Path(path).exists():
             raise RoboballError(f"{path}: file not found")
+    output_folder(args.out, create=False)
     friction = read_joint_friction(args.friction_steer, args.friction_drive)
     log = print if args.verbose else None
     label = " + ".join(args.recording)

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..atomic import savefig_atomic, write_csv_atomic, write_json_atomic, write_text_atomic
+from ..atomic import output_folder, savefig_atomic, write_csv_atomic, write_json_atomic, write_text_atomic
 from ..physics import effects as fx
 from .decide import Diagnosis
 from .drake import rmse as drake_rmse
@@ -315,8 +315,7 @@ def report_md(d: Diagnosis, js: dict, located_base, located_final, figures, drak
 
 def write(d: Diagnosis, out_dir, drake: bool = True) -> dict:
     """Write diagnosis.json, details.json, report.md and the figures into `out_dir`."""
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    out = output_folder(out_dir)
     labels = classify(d.prep)
     loc_base = locate(d.prep, d.baseline.full.pred, labels)
     loc_final = locate(d.prep, d.final.full.pred, labels)
