@@ -120,7 +120,7 @@ def table1(fits: list, out_csv: str, out_md: str, comparison_csv: str = "", robo
     from ..config import load_robot
 
     robot = load_robot(robot_yaml or None)
-    rows = []
+    rows, chains = [], []
     for path in fits:
         f = load_fit(path)
         paper = friction.table1_params(robot, f["law"], f["joint"])
@@ -129,16 +129,33 @@ def table1(fits: list, out_csv: str, out_md: str, comparison_csv: str = "", robo
                 continue
             rows.append({"joint": f["joint"], "law": f["law"], "parameter": name, "median": p["median"],
                          "map": p.get("map", float("nan")), "ci95_low": p["ci95_low"], "ci95_high": p["ci95_high"],
-                         "unit": friction.UNITS.get(name, ""), "paper_table1": paper.get(name, float("nan")),
-                         "source": f.get("recording", "")})
+                         "unit": "rad" if name == "noise_rad" else friction.UNITS.get(name, ""),
+                         "paper_table1": paper.get(name, float("nan")), "source": f.get("recording", "")})
+        c = f.get("convergence") or {}
+        if c:
+            chains.append(f"| {f.get('recording', '')} | {f['joint']} | {f['law']} | {c['steps']} | {c['burn_in']} | "
+                          f"{c['max_tau']:.0f} | {c['chain_over_tau']:.1f} (needs {c['autocorr_multiple']:g}) | "
+                          f"{c['ess_min']:.0f} | "
+                          f"{'yes' if c['converged'] else '**no**'} |")
     df = pd.DataFrame(rows)
     write_csv_atomic(df, out_csv)
     md = ["# Table I: joint-friction parameters (posterior median, 95% interval; paper value)", "",
+          "`noise_rad` is the likelihood's standard deviation of the angle, fitted with the law: sensor "
+          "noise plus what the law cannot fit (the paper gives none).", "",
           "| recording | joint | law | parameter | median | 95% interval | MAP | paper | unit |",
           "|---|---|---|---|---|---|---|---|---|"]
     for r in df.itertuples():
+        paper_value = f"{r.paper_table1:.4g}" if np.isfinite(r.paper_table1) else "-"
         md.append(f"| {r.source} | {r.joint} | {r.law} | {r.parameter} | {r.median:.4g} | [{r.ci95_low:.4g}, "
-                  f"{r.ci95_high:.4g}] | {r.map:.4g} | {r.paper_table1:.4g} | {r.unit} |")
+                  f"{r.ci95_high:.4g}] | {r.map:.4g} | {paper_value} | {r.unit} |")
+    if chains:
+        md += ["", "## Posterior sampling (emcee)", "",
+               "A chain is converged when its length after burn-in is at least `autocorr_multiple` "
+               "integrated autocorrelation times (tau) of its slowest parameter. A chain that reaches "
+               "`friction.max_steps` first is marked **no**: its medians and intervals carry more Monte "
+               "Carlo error than the others'. ESS: effective sample size of the slowest parameter.", "",
+               "| recording | joint | law | steps | burn-in | slowest tau (steps) | chain / tau | min ESS | converged |",
+               "|---|---|---|---|---|---|---|---|---|"] + chains
     if comparison_csv:
         cmp_ = pd.read_csv(comparison_csv)
         md += ["", "## Model comparison (lower BIC is better)", "", cmp_.to_markdown(index=False, floatfmt=".4g")
