@@ -1,0 +1,58 @@
+"""The shell laws of roboball.physics.shell, checked against independent computations: the
+injected stiffness and damping (eq. 7-8) give a rocking shell exactly the omega_n and zeta asked
+for, eq. 9 opposes the motion, and the contact volume of eq. 10 is a spherical cap's volume."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import quad
+
+from roboball.config import load_robot
+from roboball.physics import shell
+
+ROBOT = load_robot()
+
+
+@pytest.mark.parametrize("zeta, omega_n", [(0.18, 2.45), (0.10, 2.75), (0.06, 3.05)])
+def test_injected_terms_give_the_requested_frequency_and_damping_ratio(zeta, omega_n):
+    m_eq, k_eq = ROBOT.M_eq, ROBOT.K_eq
+    k = shell.k_inject(omega_n, m_eq, k_eq)
+    c = shell.c_inject(zeta, omega_n, m_eq)
+    # m_eq q'' + c q' + (k_eq + k) q = 0: eigenvalues -zeta w +- i w sqrt(1 - zeta^2)
+    lam = np.roots([m_eq, c, k_eq + k])
+    assert np.allclose(np.abs(lam), omega_n, rtol=1e-12)
+    assert np.allclose(-lam.real / np.abs(lam), zeta, rtol=1e-12)
+
+
+def test_eq9_torque_opposes_deflection_and_rate():
+    assert shell.injected_torque(0.1, 0.0, 5.0, 2.0) == pytest.approx(-0.5)
+    assert shell.injected_torque(0.0, -0.3, 5.0, 2.0) == pytest.approx(0.6)
+
+
+@pytest.mark.parametrize("p_kpa", [6.9, 13.8, 20.7])
+def test_contact_volume_is_the_cap_cut_off_by_the_patch(p_kpa):
+    """Patch area W / p; the cap of a sphere of radius R whose flat has that area, integrated
+    slice by slice."""
+    w, r = ROBOT.weight_n, ROBOT.radius
+    a2 = w / (p_kpa * 1e3) / math.pi
+    depth = r - math.sqrt(r * r - a2)
+    v, _ = quad(lambda z: math.pi * (r * r - z * z), r - depth, r)
+    assert shell.contact_volume(p_kpa * 1e3, w, r) == pytest.approx(v, rel=1e-10)
+    assert shell.hydro_modulus(p_kpa * 1e3, w, r) == pytest.approx(w / v, rel=1e-10)
+
+
+def test_modulus_rises_with_pressure_and_is_near_the_authors_default_at_13_8_kpa():
+    w, r = ROBOT.weight_n, ROBOT.radius
+    e = [shell.hydro_modulus(p * 1e3, w, r) for p in (6.9, 10.3, 13.8, 17.2, 20.7)]
+    assert all(b > a for a, b in zip(e, e[1:]))
+    assert e[2] == pytest.approx(1.74e6, rel=0.005)                   # the module docstring's value
+    assert e[2] == pytest.approx(ROBOT.data["hydroelastic_defaults"]["modulus_pa"], rel=0.05)
+
+
+def test_impossible_pressures_are_refused():
+    with pytest.raises(ValueError, match="positive"):
+        shell.contact_volume(0.0, ROBOT.weight_n, ROBOT.radius)
+    with pytest.raises(ValueError, match="too low"):
+        shell.contact_volume(1e3, ROBOT.weight_n, ROBOT.radius)     # 1 kPa: patch wider than the shell
