@@ -2,6 +2,7 @@
 
     .venv/bin/python benchmarks/sim_speed.py [--repeats 3] [--duration 5] [--dt 0.001]
                                              [--study-dts-ms 0.5,1,2,4,10] [--study-duration 2]
+                                             [--compare-sampled] [--skip-table | --skip-study]
 
 Real-time factor = simulated seconds / wall seconds (build time excluded, reported apart).
 Shell terms for injected/hydroelastic use zeta = 0.10, omega_n = 2.75 rad/s at 13.8 kPa;
@@ -17,6 +18,7 @@ import argparse
 import platform
 import statistics
 import time
+from dataclasses import replace
 
 from roboball.errors import RoboballError
 from roboball.sim.convergence import STUDY_PRESSURE_KPA, STUDY_SHELL, step_study, ramp_spec, timed_descent
@@ -32,22 +34,34 @@ TARGET_X = {"hydroelastic": 10.0, "point": 50.0}
 TOL_PERCENT = 1.0
 
 
+def _timed(spec, release, args):
+    """Median build and wall times of --repeats runs."""
+    walls, builds = [], []
+    for _ in range(args.repeats):
+        t0 = time.perf_counter()
+        built = build(spec, sample_period=0.01)
+        t1 = time.perf_counter()
+        simulate(spec, release, args.duration, built=built)
+        t2 = time.perf_counter()
+        builds.append(t1 - t0)
+        walls.append(t2 - t1)
+    return statistics.median(builds), statistics.median(walls)
+
+
 def speed_table(args):
-    print(f"{'scenario':<12} {'contact':<13} {'build_s':>8} {'wall_s':>8} {'real_time_x':>12}")
+    head = f"{'scenario':<12} {'contact':<13} {'build_s':>8} {'wall_s':>8} {'real_time_x':>12}"
+    if args.compare_sampled:
+        head += f" {'sampled_ports_x':>16} {'speed-up':>9}"
+    print(head)
     for kind, contact, release in CASES:
         spec = SimSpec(kind=kind, contact=contact, friction={"steer": "majd", "drive": "majd"}, dt=args.dt,
                        pressure_kpa=STUDY_PRESSURE_KPA, shell=STUDY_SHELL)
-        walls, builds = [], []
-        for _ in range(args.repeats):
-            t0 = time.perf_counter()
-            built = build(spec, sample_period=0.01)
-            t1 = time.perf_counter()
-            simulate(spec, release, args.duration, built=built)
-            t2 = time.perf_counter()
-            builds.append(t1 - t0)
-            walls.append(t2 - t1)
-        w = statistics.median(walls)
-        print(f"{kind:<12} {contact:<13} {statistics.median(builds):8.3f} {w:8.3f} {args.duration / w:12.1f}")
+        b, w = _timed(spec, release, args)
+        line = f"{kind:<12} {contact:<13} {b:8.3f} {w:8.3f} {args.duration / w:12.1f}"
+        if args.compare_sampled:     # Drake's default: every output port computed and stored each step
+            _, ws = _timed(replace(spec, sampled_output_ports=True), release, args)
+            line += f" {args.duration / ws:16.1f} {ws / w:8.2f}x"
+        print(line)
 
 
 def convergence(args):
@@ -91,12 +105,16 @@ def main():
     ap.add_argument("--study-dts-ms", default="0.5,1,2,4,10")
     ap.add_argument("--study-duration", type=float, default=2.0)
     ap.add_argument("--skip-table", action="store_true", help="only the convergence study")
+    ap.add_argument("--skip-study", action="store_true", help="only the speed table")
+    ap.add_argument("--compare-sampled", action="store_true",
+                    help="also time each case with Drake's sampled output ports (its default), in the same run")
     args = ap.parse_args()
     print(f"machine: {platform.machine()}, {platform.processor() or 'cpu'}, python {platform.python_version()}, "
           f"dt = {args.dt} s, {args.duration} s simulated, median of {args.repeats}")
     if not args.skip_table:
         speed_table(args)
-    convergence(args)
+    if not args.skip_study:
+        convergence(args)
 
 
 if __name__ == "__main__":
