@@ -203,6 +203,35 @@ def test_adaptive_chain_resumes_identically_across_its_stages(tmp_path):
         F.sample_posterior(problem, lsq, tmp_path / "full.h5", max_steps=50, **{**kw, "adapt_schedule": (12, 20)})
 
 
+def test_a_chain_sampled_by_other_code_or_robot_facts_is_not_resumed(tmp_path, monkeypatch):
+    """The pipeline reruns a fit when its code or the robot facts change, and the HDF5 chain
+    must not carry the old posterior into it: a stored chain records the source fingerprint of
+    the log-probability and the robot facts.  Kept by a user (the default) it is refused; as the
+    pipeline's cache (stale="restart") it is sampled afresh, giving exactly a fresh run."""
+    import copy
+
+    from roboball.config import RobotFacts
+
+    segs = F.segments_from_arrays(synthetic_stand("viscous", {"c": 0.3}, seed=3, angles=(0.6, -0.5), duration=2.0))
+    problem = F.FrictionProblem("steer_stand", "viscous", segs, F.law_priors("steer", "viscous"), dt=5e-3)
+    lsq = F.least_squares_fit(problem, seed=0)
+    kw = dict(seed=4, n_walkers=10, autocorr_multiple=1e6, chunk=5, min_steps=5, adapt_schedule=(10, 20))
+    fresh = F.sample_posterior(problem, lsq, tmp_path / "fresh.h5", max_steps=30, **kw)
+    monkeypatch.setattr(F, "_CODE", "0000000000000000")           # the chain of an older roboball
+    F.sample_posterior(problem, lsq, tmp_path / "old.h5", max_steps=30, **kw)
+    monkeypatch.setattr(F, "_CODE", None)
+    with pytest.raises(RoboballError, match="different fit \\(differs in code\\)"):
+        F.sample_posterior(problem, lsq, tmp_path / "old.h5", max_steps=30, **kw)
+    again = F.sample_posterior(problem, lsq, tmp_path / "old.h5", max_steps=30, stale="restart", **kw)
+    assert again["resumed_from"] == 0 and np.array_equal(again["chain"], fresh["chain"])
+    # other robot facts: another fit
+    data = copy.deepcopy(ROBOT.data)
+    data["links"]["pendulum"]["mass_kg"] *= 1.01
+    heavier = F.FrictionProblem("steer_stand", "viscous", segs, F.law_priors("steer", "viscous"), dt=5e-3,
+                                robot=RobotFacts(data, source="test"))
+    assert heavier.fingerprint() != problem.fingerprint()
+
+
 def test_independence_proposal_samples_a_known_gaussian_exactly():
     """The MH correction of IndependentT: a deliberately wrong proposal (shifted mean, wrong
     widths) still samples the target N(mu, diag(s^2))."""

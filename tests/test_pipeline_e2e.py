@@ -5,6 +5,7 @@ point-contact model sits on eq. 5 with zero damping in the pipeline's own table,
 schedules nothing, touching one ramp log reruns only that log's jobs and what depends on them,
 editing one friction prior reruns only that model's fit and what depends on it.
 """
+import json
 import os
 import re
 import shutil
@@ -139,3 +140,10 @@ def test_editing_one_friction_prior_reruns_only_that_fit(built):
     assert planned.get("friction_fit") == 1 + real, planned
     assert set(planned) <= {"friction_fit", "friction_comparison", "table1", "fig5", "fig_stand", "corner",
                             "uncertainty_report", "all"}, planned
+    # ... and the rerun samples that posterior afresh: the stored chain of the old prior (the
+    # rule's resumable cache) is neither refused nor resumed
+    fit = built / "results" / "friction" / "testbed" / "steer_coulomb_viscous.json"
+    _smk(built, str(fit.relative_to(built)))
+    log = (built / "results" / "logs" / "friction" / "testbed" / "steer_coulomb_viscous.log").read_text()
+    assert "stored chain is of a different fit (differs in fingerprint)" in log, log[-2000:]
+    assert json.loads(fit.read_text())["convergence"]["resumed_from_steps"] == 0

@@ -58,6 +58,7 @@ import hashlib
 import json
 import math
 import os
+import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -450,9 +451,10 @@ class FrictionProblem:
         return out
 
     def fingerprint(self) -> str:
-        """Hash of the data, law, priors and fixed values: a stored chain belongs to exactly this."""
+        """Hash of the data, law, priors, fixed values and robot facts: a stored chain belongs to
+        exactly this (and to the code that computes its log-probability: `sample_posterior`)."""
         h = hashlib.sha256()
-        h.update(json.dumps({"kind": self.kind, "law": self.law, "names": self.names,
+        h.update(json.dumps({"kind": self.kind, "law": self.law, "names": self.names, "robot": self.robot.data,
                              "priors": [p.describe() for p in self.priors],
                              "noise": self.noise_prior.describe(), "fixed": self.fixed,
                              "half_width": self.half_width,
@@ -683,6 +685,18 @@ def _burn_and_tau(chain: np.ndarray) -> tuple[int, np.ndarray]:
     return burn, tau
 
 
+def _code_fingerprint() -> str:
+    """The source of the log-probability: this module's import closure (cached per process)."""
+    global _CODE
+    if _CODE is None:
+        from ..pipeline.codedeps import source_fingerprint
+        _CODE = source_fingerprint(__name__)
+    return _CODE
+
+
+_CODE: str | None = None
+
+
 def _meta_attrs(path: Path, meta: dict | None = None) -> dict | None:
     import h5py
 
@@ -701,8 +715,14 @@ def _meta_attrs(path: Path, meta: dict | None = None) -> dict | None:
 def sample_posterior(problem: FrictionProblem, lsq: dict, chain_path: str | os.PathLike, seed: int = 0,
                      n_walkers: int = 32, autocorr_multiple: float = 50.0, max_steps: int = 20000,
                      chunk: int = 50, moves=None, min_steps: int = 100,
-                     adapt_schedule: Sequence[int] = ADAPT_SCHEDULE) -> dict:
+                     adapt_schedule: Sequence[int] = ADAPT_SCHEDULE, stale: str = "refuse") -> dict:
     """Run (or resume) the emcee chain in `chain_path` until converged or `max_steps`.
+
+    A stored chain is resumed only if it belongs to this fit: the same data, priors, robot facts,
+    sampler settings and the same source code of the log-probability (`code` in its metadata,
+    roboball.pipeline.codedeps.source_fingerprint of this module).  Another fit's chain is
+    refused (`stale="refuse"`, for a chain a user keeps) or deleted and sampled afresh
+    (`stale="restart"`, the pipeline's: there the chain is a resumable cache of its rule).
 
     With ``moves=None`` the chain adapts, then samples with a frozen kernel.  Adaptation:
     differential-evolution moves from the Laplace start up to ``adapt_schedule[0]`` steps, then
@@ -729,23 +749,33 @@ def sample_posterior(problem: FrictionProblem, lsq: dict, chain_path: str | os.P
     if adaptive and (not schedule or any(b <= a for a, b in zip(schedule, schedule[1:])) or schedule[0] < 2):
         raise RoboballError(f"friction fit: adaptation schedule {schedule} must be increasing step counts >= 2")
     adapt = schedule[-1] if adaptive else 0
+    if stale not in ("refuse", "restart"):
+        raise ValueError(f"stale must be 'refuse' or 'restart', not {stale!r}")
     meta = {"fingerprint": problem.fingerprint(), "names": problem.names, "law": problem.law,
             "kind": problem.kind, "n_walkers": int(n_walkers), "seed": int(seed), "dt": problem.dt,
-            "sampler": f"adaptive-independence-t/{'-'.join(map(str, schedule))}" if adaptive else "given-moves"}
-    backend = emcee.backends.HDFBackend(str(chain_path), name="mcmc")  # checkpoint: resumable emcee chain, checked by fingerprint on reuse
+            "sampler": f"adaptive-independence-t/{'-'.join(map(str, schedule))}" if adaptive else "given-moves",
+            "code": _code_fingerprint()}
     resumed_from = 0
-    stored = _meta_attrs(chain_path) if chain_path.exists() else None
     if chain_path.exists():
+        stored = _meta_attrs(chain_path)
         try:
-            it = backend.iteration
+            it = emcee.backends.HDFBackend(str(chain_path), name="mcmc", read_only=True).iteration
         except Exception as exc:   # noqa: BLE001 - an unreadable file is a user-facing problem
-            raise RoboballError(f"{chain_path}: cannot read the stored chain ({exc}); delete it to start afresh")
-        if it > 0:
-            if stored is None or {k: stored.get(k) for k in meta} != meta:
-                diff = [k for k in meta if stored is None or stored.get(k) != meta[k]]
+            if stale != "restart":
+                raise RoboballError(f"{chain_path}: cannot read the stored chain ({exc}); delete it to start afresh")
+            it, stored = 0, None
+        if it > 0 and (stored is None or {k: stored.get(k) for k in meta} != meta):
+            diff = [k for k in meta if stored is None or stored.get(k) != meta[k]]
+            if stale != "restart":
                 raise RoboballError(f"{chain_path}: holds a chain of a different fit (differs in "
                                     f"{', '.join(diff)}); delete it or give another chain path")
-            resumed_from = int(it)
+            print(f"{chain_path}: the stored chain is of a different fit (differs in {', '.join(diff)}); "
+                  "sampling afresh", file=sys.stderr)
+            it = 0
+        if it == 0:
+            chain_path.unlink()
+        resumed_from = int(it)
+    backend = emcee.backends.HDFBackend(str(chain_path), name="mcmc")  # checkpoint: resumable emcee chain, checked by fingerprint on reuse
 
     def stage_of(n_done: int) -> int:
         return sum(n_done >= a for a in schedule)
@@ -945,7 +975,7 @@ def fit_segments(kind: str, law: str, segments: Sequence, chain_path: str | os.P
                  autocorr_multiple: float = 50.0, max_steps: int = 20000, dt: float | None = None,
                  chunk: int = 50, robot: RobotFacts | None = None, fixed: Mapping | None = None,
                  source: str = "data", moves=None, min_steps: int = 100,
-                 sample_angles: bool = True) -> tuple[dict, pd.DataFrame]:
+                 sample_angles: bool = True, stale: str = "refuse") -> tuple[dict, pd.DataFrame]:
     """Full fit of `law` on stand `kind` from segments (:func:`segments_from_arrays` input or
     :class:`Segment` list): least squares, step choice, emcee to convergence, summary.
 
@@ -954,7 +984,8 @@ def fit_segments(kind: str, law: str, segments: Sequence, chain_path: str | os.P
     conditions on their least-squares values: cheaper, but the friction levels are correlated
     with the release amplitudes, so the conditional intervals come out too narrow (by ~40% for
     f_w, f_c of a Majd fit in the tests); use it only for quick looks.
-    `walkers` is raised to 2 x (number of sampled parameters) + 2 if it is smaller."""
+    `walkers` is raised to 2 x (number of sampled parameters) + 2 if it is smaller.  `stale`: what
+    to do with a stored chain of another fit (:func:`sample_posterior`)."""
     t_start = time.perf_counter()
     joint = JOINT_OF_KIND.get(kind)
     if joint is None:
@@ -978,7 +1009,7 @@ def fit_segments(kind: str, law: str, segments: Sequence, chain_path: str | os.P
     walkers = max(int(walkers), 2 * problem.ndim + 2)
     post = sample_posterior(problem, lsq, chain_path, seed=seed, n_walkers=walkers,
                             autocorr_multiple=autocorr_multiple, max_steps=max_steps, chunk=chunk,
-                            moves=moves, min_steps=min_steps)
+                            moves=moves, min_steps=min_steps, stale=stale)
     res, samples = summarize(problem, lsq, post, seed=seed, step_error=dt_info["max_error_rad"])
     res["integration"]["parameter_shift_sd"] = dt_info["max_shift_sd"]
     if dt_info["max_shift_sd"] > DT_TOLERANCE:
@@ -1005,7 +1036,7 @@ def _refine(problem: FrictionProblem, lsq: dict, seed: int) -> dict:
 def fit(recording: str | os.PathLike, releases: str | os.PathLike, joint: str, law: str,
         prior: Mapping | str | os.PathLike | None, chain: str | os.PathLike, *, walkers: int = 32,
         autocorr_multiple: float = 50.0, max_steps: int = 20000, seed: int = 0,
-        dt: float | None = None, sample_angles: bool = True) -> tuple[dict, pd.DataFrame]:
+        dt: float | None = None, sample_angles: bool = True, stale: str = "refuse") -> tuple[dict, pd.DataFrame]:
     """Pipeline entry: fit `law` on `joint` to a stand recording (CSV + sidecar) and its
     releases JSON (``{"releases": [{"t_release_s", "t_end_s", "y_release", ...}]}``)."""
     from ..recording import read_recording
@@ -1028,7 +1059,7 @@ def fit(recording: str | os.PathLike, releases: str | os.PathLike, joint: str, l
     segs = segments_from_arrays([(t, y, r) for r in rels], source=str(releases))
     res, samples = fit_segments(kind, law, segs, chain, prior, seed=seed, walkers=walkers,
                                 autocorr_multiple=autocorr_multiple, max_steps=max_steps, dt=dt,
-                                source=rec.label, sample_angles=sample_angles)
+                                source=rec.label, sample_angles=sample_angles, stale=stale)
     res["releases_file"] = str(releases)
     return res, samples
 

@@ -123,6 +123,12 @@ def _fingerprint(modules: list[str], sources: dict[str, bytes], config_dir: Path
     return h.hexdigest()[:16]
 
 
+def source_fingerprint(module: str, root: Path = PACKAGE_ROOT) -> str:
+    """A short hash of the source files `module` runs (its import closure), without any config:
+    the identity of a computation's code, for results cached outside Snakemake (MCMC chains)."""
+    return _fingerprint([m for m in closure(module, root) if m != ROBOT_FACTS_READER], {}, Path("."), root)
+
+
 def stage_fingerprint(stage: str, config_dir: str | Path = "configs", root: Path = PACKAGE_ROOT) -> str:
     """A short hash of the stage's source files (and of robot.yaml when it reads the robot facts)."""
     return _fingerprint(closure(stage_module(stage, root), root), {}, Path(config_dir), root)

@@ -11,11 +11,14 @@ STAGES = ("friction_fit", "friction_comparison")
 def friction_fit(recording: str, releases: str, joint: str, law: str, prior_json: str, chain: str,
                  out_json: str, out_samples: str, walkers: int = 32, autocorr_multiple: float = 50.0,
                  max_steps: int = 20000, seed: int = 0) -> None:
-    """Least squares then emcee posterior of `law` on `joint` (HDF5 chain resumes if present)."""
+    """Least squares then emcee posterior of `law` on `joint`.  The HDF5 chain is the rule's
+    resumable cache: an interrupted run continues it; a chain of another fit (data, prior,
+    robot facts, settings or the code changed, which is why Snakemake reruns the rule) is
+    sampled afresh."""
     from ..identify.friction_fit import fit
 
     res, samples = fit(recording, releases, joint, law, json.loads(prior_json), chain, walkers=walkers,
-                       autocorr_multiple=autocorr_multiple, max_steps=max_steps, seed=seed)
+                       autocorr_multiple=autocorr_multiple, max_steps=max_steps, seed=seed, stale="restart")
     write_csv_atomic(samples, out_samples)
     res["samples_csv"] = out_samples
     write_json_atomic(out_json, res)
