@@ -8,7 +8,7 @@ FIGURES = [
 
 
 rule table2:
-    input: robot="configs/robot.yaml"
+    input: robot=os.path.join(os.environ["ROBOBALL_CONFIG_DIR"], "robot.yaml")
     output:
         csv=f"{PF}/table2_robot.csv",
         md=f"{PF}/table2_robot.md",

@@ -3,7 +3,9 @@
 # drive stands, and the real steer-stand log when present.
 import json
 
-PRIORS = config.get("_priors") or __import__("yaml").safe_load(open("configs/priors.yaml"))
+# the workflow's priors (ROBOBALL_CONFIG_DIR, checked against their schema by the Snakefile)
+PRIORS = __import__("roboball.config", fromlist=["load_yaml"]).load_yaml(
+    os.path.join(os.environ["ROBOBALL_CONFIG_DIR"], "priors.yaml"))
 STAND = {("testbed", "steer"): "steer_stand_r1", ("testbed", "drive"): "drive_stand_r1",
          ("real", "steer"): "real_steer_stand"}
 FITS = [("testbed", j, law) for j, law in FRICTION_MODELS]

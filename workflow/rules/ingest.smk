@@ -1,13 +1,18 @@
 # Stage 1: validate and normalise every recording, find its releases, QC plot; decay per release.
+from pathlib import Path
+
 
 rule ingest:
     input:
         src=lambda w: REC[w.stem]["src"],
+        # the recording's sidecar (kind, pressure, ramp angle, ramp exit), when it has one
+        sidecar=lambda w: [s for s in [str(Path(REC[w.stem]["src"]).with_suffix(".json"))] if Path(s).is_file()],
     output:
         csv="results/ingest/{stem}.csv",
         sidecar="results/ingest/{stem}.json",
         releases="results/ingest/{stem}.releases.json",
         qc=report("results/qc/{stem}.png", category="1 Ingest", caption="../report/qc.rst"),
+        qc_pdf="results/qc/{stem}.pdf",           # written beside the PNG (roboball.pipeline.plotting.save)
     params:
         code=CODE["ingest"],
         kind=lambda w: REC[w.stem]["kind"],

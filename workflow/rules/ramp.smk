@@ -44,6 +44,7 @@ rule diagnose:
         predictions="results/diagnose/{stem}/predictions.csv",
         report="results/diagnose/{stem}/report.md",
         details="results/diagnose/{stem}/details.json",
+        figures=expand("results/diagnose/{{stem}}/{name}.png", name=("overlay", "regimes", "windows")),
     params: code=CODE["diagnose-recording"]
     wildcard_constraints: stem="[^/]+"
     log: "results/logs/diagnose/{stem}.log"
@@ -82,6 +83,7 @@ rule diagnose_ramp_pressure:
         predictions="results/diagnose/pressure/{group}/predictions.csv",
         report="results/diagnose/pressure/{group}/report.md",
         details="results/diagnose/pressure/{group}/details.json",
+        figures=expand("results/diagnose/pressure/{{group}}/{name}.png", name=("overlay", "regimes", "windows")),
     params: code=CODE["diagnose-recording"]
     log: "results/logs/diagnose/pressure/{group}.log"
     benchmark: "results/benchmarks/diagnose/pressure/{group}.tsv"
@@ -100,6 +102,7 @@ rule diagnose_ramp_heldout:
         predictions="results/diagnose/heldout/{stem}/predictions.csv",
         report="results/diagnose/heldout/{stem}/report.md",
         details="results/diagnose/heldout/{stem}/details.json",
+        figures=expand("results/diagnose/heldout/{{stem}}/{name}.png", name=("overlay", "regimes", "windows")),
     params: code=CODE["diagnose-recording"]
     log: "results/logs/diagnose/heldout/{stem}.log"
     benchmark: "results/benchmarks/diagnose/heldout/{stem}.tsv"
