@@ -17,7 +17,7 @@ rule ramp_sim:
                           config["shell"]["carried_forward"]["dissipation_scale"]) if w.contact == "hydroelastic" else (1.0, 1.0),
         dt=config["ramp"]["dt_s"],
         draws=config["ramp"]["posterior_draws"],
-        seed=lambda w: config["seed"] + RAMP.index(w.stem),
+        seed=config["seed"],
     wildcard_constraints: contact="point|injected|hydroelastic"
     log: "results/logs/ramp/{contact}/{stem}.log"
     benchmark: "results/benchmarks/ramp/{contact}/{stem}.tsv"

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import zlib
 
 import numpy as np
 import pandas as pd
@@ -135,7 +136,8 @@ def ramp_sim(recording: str, releases: str, regression: str, contact: str, out_c
              posterior_draws: int = 0, seed: int = 0) -> None:
     """Ramp descent of one recorded run with `contact`, Majd friction on both joints (fitted
     medians when given, else Table I), started from the recording's initial pipe angle; the
-    drive rate is compared with the recording until the robot leaves the ramp."""
+    drive rate is compared with the recording until the robot leaves the ramp.  The
+    `posterior_draws` friction draws come from the campaign's `seed` and the run's name."""
     from ..recording import read_recording
     from ..sim.plant import ShellParams, SimSpec
     from ..sim.scenarios import simulate
@@ -164,7 +166,9 @@ def ramp_sim(recording: str, releases: str, regression: str, contact: str, out_c
            "ramp_time_s": float(tt[-1])}
     draws = []
     if posterior_draws and friction_steer and friction_drive:
-        rng = np.random.default_rng(seed)
+        # the run's own stream: the same draws for every contact model of this run, and none that
+        # move when another run joins the campaign
+        rng = np.random.default_rng([seed, zlib.crc32(row["recording"].encode())])
         samples = {k: pd.read_csv(_sample_path(v)) for k, v in (("steer", friction_steer), ("drive", friction_drive))}
         for _ in range(posterior_draws):
             fp = {}
