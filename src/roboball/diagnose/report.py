@@ -84,11 +84,10 @@ def missing_physics(d: Diagnosis) -> list:
 
 
 def diagnosis_json(d: Diagnosis, located_base, located_final, drake_before=None, drake_after=None) -> dict:
-    located = [dict(w, share_of_residual=_round(w["share_of_residual"], 4), model="baseline")
-               for w in located_base.windows]
-    if d.verdict == "unexplained" and d.chosen:
-        located += [dict(w, share_of_residual=_round(w["share_of_residual"], 4), model="augmented")
-                    for w in located_final.windows]
+    # The contract's `located` is where the BASELINE's residual concentrates (its shares sum to at
+    # most 1); where an unexplained residual remains after the effects is in report.md and in
+    # details.json ("located_augmented").
+    located = [dict(w, share_of_residual=_round(w["share_of_residual"], 4)) for w in located_base.windows]
     fit = {"rmse_before": _round(d.baseline.rmse), "rmse_after": _round(d.final.rmse),
            "rmse_heldout_before": _round(d.baseline.cv_rmse), "rmse_heldout_after": _round(d.final.cv_rmse),
            "units": d.prep.unit}
