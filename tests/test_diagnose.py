@@ -108,7 +108,12 @@ def test_cli_writes_the_contract_files(tmp_path, capsys):
     js = json.loads((out / "diagnosis.json").read_text())
     assert set(js) == {"kind", "baseline", "verdict", "located", "missing_physics", "fit"}
     assert js["kind"] == "steer_stand" and js["verdict"] in ("adequate", "augmented", "unexplained")
-    assert set(js["baseline"]) == {"description", "fitted"} and "viscous_c" in js["baseline"]["fitted"]
+    assert set(js["baseline"]) == {"description", "fitted", "refitted_with_effects"}
+    assert "viscous_c" in js["baseline"]["fitted"]
+    # the augmented model = the baseline refitted with the effects: its own values are given
+    refit = js["baseline"]["refitted_with_effects"]
+    assert set(refit) == set(js["baseline"]["fitted"])
+    assert "Refitted with the effects (the augmented model): viscous_c = " in (out / "report.md").read_text()
     for loc in js["located"]:
         assert {"start_s", "end_s", "signal", "regime", "share_of_residual"} <= set(loc)
         assert loc["start_s"] <= loc["end_s"] and 0 <= loc["share_of_residual"] <= 1

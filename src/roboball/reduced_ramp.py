@@ -96,7 +96,8 @@ class RampModel(ReducedModel):
         self.candidates = ("viscous_damping", "rolling_resistance", "quadratic_drag")
         self.description = (f"planar ramp descent on {math.degrees(self.alpha):.3g} deg: shell rolling (or "
                             f"sliding beyond mu = {self.mu:g}) on rigid point contact + pendulum about the "
-                            f"driveshaft, Majd friction ({source}) on the drive joint")
+                            f"driveshaft, Majd friction ({source}) on both joints (the planar model holds the "
+                            f"steering at zero, so only the drive joint's acts in it)")
 
     def simulate(self, q0, P: dict, n_steps: int, dt: float = DT):
         """Released from rest (pendulum hanging) for a batch; returns drive rate and its

@@ -46,8 +46,10 @@ def _clean(obj):
     return obj
 
 
-def baseline_fitted(d: Diagnosis) -> dict:
-    v = d.baseline.values
+def baseline_fitted(d: Diagnosis, values: dict | None = None) -> dict:
+    """The baseline's own fitted parameters and release states, of the baseline fit (default) or
+    of another fit of the same model (the augmented model refits them with its effects)."""
+    v = d.baseline.values if values is None else values
     out = {b.name: _round(v[b.name]) for b in d.model.base_params}
     unit = "rad" if d.prep.unit == "rad" else None
     for w in d.prep.windows:
@@ -95,6 +97,8 @@ def diagnosis_json(d: Diagnosis, located_base, located_final, drake_before=None,
         fit["drake_rmse_before"] = _round(drake_before)
         fit["drake_rmse_after"] = _round(drake_after)
     baseline = {"description": d.model.description, "fitted": baseline_fitted(d)}
+    if d.chosen:        # the augmented model refits them with its effects: needed to reproduce it
+        baseline["refitted_with_effects"] = baseline_fitted(d, d.final.values)
     friction = getattr(d.model, "friction_params", None)     # the ramp baseline's fitted friction, if any
     if friction:
         baseline["friction"] = friction
@@ -240,11 +244,15 @@ def report_md(d: Diagnosis, js: dict, located_base, located_final, figures, drak
              + (f" - missing physics: {', '.join(d.chosen)}" if d.chosen else ""), "",
              f"Baseline: {d.model.description}.", "",
              f"Fitted inside the baseline: " + ", ".join(f"{k} = {v}" for k, v in js["baseline"]["fitted"].items()),
-             "", f"Noise level of the recording: {prep.noise:.3g} {u}; {len(prep.windows)} release(s) "
+             "", *([f"Refitted with the effects (the augmented model): " + ", ".join(
+                 f"{k} = {v}" for k, v in js["baseline"]["refitted_with_effects"].items()), ""]
+                   if "refitted_with_effects" in js["baseline"] else []),
+             f"Noise level of the recording: {prep.noise:.3g} {u}; {len(prep.windows)} release(s) "
              f"({', '.join(f'{w.t0:.2f}-{w.t[-1]:.2f} s (from the {w.start}; {w.end_reason})' for w in prep.windows)}).",
              "", "A window starts at the first turning point after the hand lets go when enough swings follow "
-             "(the let-go itself, where the hand may still touch the body, is not simulated); the fitted "
-             "release_i_s / release_i_rad are then the instant and value of that turning point.", ""]
+             "(the let-go itself, where the hand may still touch the body, is not simulated); the model "
+             "starts at rest there, and release_i_s / release_i_rad are its starting instant and angle, fitted "
+             "near the turning point's.", ""]
     lines += ["## Where the baseline misses", "",
               _md_table([(f"{w['start_s']:.2f}-{w['end_s']:.2f} s", w["regime"], f"{w['share_of_residual']:.0%}")
                          for w in located_base.windows], ["time window", "regime", "share of squared residual"]), "",
