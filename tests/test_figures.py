@@ -54,3 +54,20 @@ def test_posterior_whiskers_need_not_contain_the_bar(tmp_path):
     out = [str(tmp_path / f) for f in ("fig13.png", "fig14.png", "t.csv", "t.md")]
     fig13_14(_summary(tmp_path / "s.csv", shift_draws=5.0), *out)
     assert (tmp_path / "fig13.png").exists() and (tmp_path / "fig14.png").exists()
+
+
+def test_fig13_names_the_campaign_and_leaves_room_for_its_key(tmp_path, monkeypatch):
+    """The titles say where the recordings come from (config `campaign`), and the key line at the
+    top of Fig. 13 sits above the tallest bar rather than on it."""
+    import roboball.pipeline.figures as figures
+
+    saved = []
+    monkeypatch.setattr(figures, "save", lambda fig, path: saved.append(fig))
+    out = [str(tmp_path / f) for f in ("fig13.png", "fig14.png", "t.csv", "t.md")]
+    fig13_14(_summary(tmp_path / "s.csv"), *out, campaign="virtual test bed")
+    fig13, fig14 = saved
+    top = fig13.axes[0]
+    assert top.get_title() == "Fig. 13: drive-speed error per pressure (virtual test bed recordings)"
+    assert fig14.axes[0].get_title().endswith("(virtual test bed recordings)")
+    tallest = max(b.get_height() for b in top.patches)
+    assert top.get_ylim()[1] > 1.05 * tallest

@@ -25,11 +25,11 @@ rule fig10:
     output:
         png=report(f"{PF}/fig10_shell_dynamics.png", category="3 Shell", caption="../report/fig10.rst"),
         pdf=f"{PF}/fig10_shell_dynamics.pdf",
-    params: code=CODE["fig10"]
+    params: code=CODE["fig10"], campaign=config.get("campaign", "")
     log: "results/logs/fig10.log"
     shell:
         "{ROBOBALL} fig10 --points {input.points} --regression {input.regression} --sims {input.sims} "
-        "--out-png {output.png} > {log} 2>&1"
+        "--out-png {output.png} --campaign '{params.campaign}' > {log} 2>&1"
 
 
 rule fig11:
@@ -45,10 +45,12 @@ rule fig11:
         code=CODE["fig11"],
         m=config["shell"]["carried_forward"]["modulus_scale"],
         d=config["shell"]["carried_forward"]["dissipation_scale"],
+        campaign=config.get("campaign", ""),
     log: "results/logs/fig11.log"
     shell:
         "{ROBOBALL} fig11 --sweep {input.sweep} --points {input.points} --out-png {output.png} "
-        "--out-table {output.table} --out-md {output.md} --carried-modulus {params.m} --carried-dissipation {params.d} > {log} 2>&1"
+        "--out-table {output.table} --out-md {output.md} --carried-modulus {params.m} --carried-dissipation {params.d} "
+        "--campaign '{params.campaign}' > {log} 2>&1"
 
 
 rule fig13_14:
@@ -59,11 +61,11 @@ rule fig13_14:
         pdfs=[f"{PF}/fig13_ramp_pme.pdf", f"{PF}/fig14_ramp_pme_mean.pdf"],
         csv=f"{PF}/table_pme.csv",
         md=f"{PF}/table_pme.md",
-    params: code=CODE["fig13-14"]
+    params: code=CODE["fig13-14"], campaign=config.get("campaign", "")
     log: "results/logs/fig13_14.log"
     shell:
         "{ROBOBALL} fig13-14 --summary {input} --out13 {output.fig13} --out14 {output.fig14} "
-        "--out-csv {output.csv} --out-md {output.md} > {log} 2>&1"
+        "--out-csv {output.csv} --out-md {output.md} --campaign '{params.campaign}' > {log} 2>&1"
 
 
 REPLAYS = {"steer_stand": ("point", 0.8), "drive_stand": ("point", 0.6), "shell_rock": ("injected", -0.3),

@@ -23,9 +23,15 @@ def _reg(table):
     return t
 
 
-def fig10(points: str, regression: str, sims: str, out_png: str, robot_yaml: str = "") -> None:
-    """Fig. 10: measured zeta and omega_n vs pressure (error bars), regressions with 95% bands,
-    eq. 5 (dashed), and each contact model's simulated values."""
+def _of(campaign: str) -> str:
+    """' (<campaign> recordings)' for a title, '' without a campaign label."""
+    return f" ({campaign} recordings)" if campaign else ""
+
+
+def fig10(points: str, regression: str, sims: str, out_png: str, robot_yaml: str = "", campaign: str = "") -> None:
+    """Fig. 10: recorded zeta and omega_n vs pressure (error bars), regressions with 95% bands,
+    eq. 5 (dashed), and each contact model's simulated values.  `campaign` names where the
+    recordings come from (config `campaign`), in the title."""
     from ..config import load_robot
     from ..physics import shell as sl
     from ..regress import fit_regressions
@@ -37,13 +43,14 @@ def fig10(points: str, regression: str, sims: str, out_png: str, robot_yaml: str
     reg = fit_regressions(pts)
     pp = np.linspace(pts.pressure_kpa.min() - 1, pts.pressure_kpa.max() + 1, 100)
     fig, axes = plt.subplots(2, 1, figsize=(7, 7.5), sharex=True)
-    for ax, col, se, fit, label, unit in [
-            (axes[0], "zeta", "zeta_se", reg.zeta, "damping ratio $\\zeta$", "-"),
-            (axes[1], "omega_n_rad_s", "omega_n_se_rad_s", reg.omega_n, "natural frequency $\\omega_n$", "rad/s")]:
+    for ax, col, se, fit, label, unit, law in [
+            (axes[0], "zeta", "zeta_se", reg.zeta, "damping ratio $\\zeta$", "-", "$\\zeta = a\\,e^{b p}$"),
+            (axes[1], "omega_n_rad_s", "omega_n_se_rad_s", reg.omega_n, "natural frequency $\\omega_n$", "rad/s",
+             "$\\omega_n = c + d\\,p$")]:
         ax.errorbar(pts.pressure_kpa, pts[col], yerr=1.96 * pts[se], fmt="o", color="k", ms=4, capsize=2,
-                    label="measured releases (95% CI)")
+                    label="recorded releases (95% CI)")
         lo, hi = fit.band(pp)
-        ax.plot(pp, fit.predict(pp), color="k", lw=1.5, label=f"regression: {fit.label if hasattr(fit, 'label') else ''}".rstrip(": "))
+        ax.plot(pp, fit.predict(pp), color="k", lw=1.5, label=f"regression: {law}")
         ax.fill_between(pp, lo, hi, color="k", alpha=0.12, label="95% confidence band")
         for contact, g in sim.groupby("contact"):
             m = g.groupby("pressure_kpa")[col].agg(["mean", "std"]).reset_index()
@@ -59,12 +66,12 @@ def fig10(points: str, regression: str, sims: str, out_png: str, robot_yaml: str
     axes[1].set_xlabel("shell gauge pressure p (kPa)")
     for ax in axes:
         ax.legend(fontsize=7, loc="best", ncol=2)
-    fig.suptitle("Fig. 10: locked-steer shell dynamics vs pressure")
+    fig.suptitle(f"Fig. 10: locked-steer shell dynamics vs pressure{_of(campaign)}")
     save(fig, out_png)
 
 
 def fig11(sweep: str, points: str, out_png: str, out_table: str, out_md: str, carried_modulus: float = 1.0,
-          carried_dissipation: float = 0.5) -> None:
+          carried_dissipation: float = 0.5, campaign: str = "") -> None:
     """Fig. 11: hydroelastic sensitivity (modulus and dissipation x0.5, x1.5, both) of the
     simulated damping ratio at every pressure, and the percent-error change against the control."""
     sw = pd.read_csv(sweep)
@@ -84,23 +91,26 @@ def fig11(sweep: str, points: str, out_png: str, out_table: str, out_md: str, ca
     others = [c for c in cases if c != "control"]
     colours = {c: plt.cm.tab10(i) for i, c in enumerate(others)}
     colours["control"] = "k"
-    w = 2.4 / max(len(others), 1)
+    pressures = sorted(g.pressure_kpa.unique())
+    slot = {p: i for i, p in enumerate(pressures)}          # one group of bars per tested pressure
+    w = 0.8 / max(len(others), 1)
     for case in cases:
         s = g[g.case == case]
         axes[0].plot(s.pressure_kpa, s.zeta, "o-", label=case, color=colours[case], lw=2.5 if case == "control" else 1.2)
         if case != "control":
             k = others.index(case)
-            axes[1].bar(s.pressure_kpa.to_numpy() + (k - (len(others) - 1) / 2) * w, s.error_change_vs_control_percent,
-                        w * 0.9, label=case, color=colours[case])
-    axes[0].plot(meas.index, meas.values, "kx", ms=9, mew=2, label="measured (mean)")
+            axes[1].bar(s.pressure_kpa.map(slot).to_numpy() + (k - (len(others) - 1) / 2) * w,
+                        s.error_change_vs_control_percent, w * 0.9, label=case, color=colours[case])
+    axes[1].set_xticks(range(len(pressures)), [f"{p:g}" for p in pressures])
+    axes[0].plot(meas.index, meas.values, "kx", ms=9, mew=2, label="recorded (mean)")
     axes[0].set_xlabel("pressure (kPa)")
     axes[0].set_ylabel("simulated damping ratio $\\zeta$ (-)")
     axes[0].legend(fontsize=7)
     axes[1].axhline(0, color="k", lw=0.8)
     axes[1].set_xlabel("pressure (kPa)")
-    axes[1].set_ylabel("change of |zeta error| vs control (percentage points)")
+    axes[1].set_ylabel("change of $|\\zeta$ error$|$ vs control (percentage points)")
     axes[1].legend(fontsize=7)
-    fig.suptitle("Fig. 11: hydroelastic parameter sensitivity (negative = closer to the data)")
+    fig.suptitle(f"Fig. 11: hydroelastic parameter sensitivity{_of(campaign)}; negative = closer to the data")
     save(fig, out_png)
     mean_err = g.groupby("case").abs_error_percent.mean().sort_values()
     carried = ("control" if (carried_modulus, carried_dissipation) == (1.0, 1.0) else
@@ -127,7 +137,7 @@ def _range_whisker(ax, x, low, high, capsize):
     ax.errorbar(x, 0.5 * (low + high), yerr=0.5 * abs(high - low), fmt="none", ecolor="k", capsize=capsize, lw=1)
 
 
-def fig13_14(summary: str, out13: str, out14: str, out_csv: str, out_md: str) -> None:
+def fig13_14(summary: str, out13: str, out14: str, out_csv: str, out_md: str, campaign: str = "") -> None:
     """Fig. 13 (PME per pressure and model, spread over runs, posterior intervals) and Fig. 14
     (averaged over pressures); the PME table as CSV and Markdown."""
     s = pd.read_csv(summary)
@@ -169,12 +179,15 @@ def fig13_14(summary: str, out13: str, out14: str, out_csv: str, out_md: str) ->
     lim = max(1.0, 1.25 * float(small.abs().max())) if len(small) else DETAIL_PERCENT
     ax_d.set_ylim(-lim, lim)
     ax_d.set_ylabel("detail (%)")
-    ax_d.text(0.01, 0.96, f"detail: the same bars, models within {DETAIL_PERCENT:g}% of the recording",
+    ax_d.text(0.01, 0.96, f"detail: the same bars on a finer scale, for the models within {DETAIL_PERCENT:g}% "
+              "of the recording",
               transform=ax_d.transAxes, va="top", fontsize=8, color="0.3")
     ax_d.set_xticks(np.arange(len(pressures)), [f"{p:g}" for p in pressures])
     ax_d.set_xlabel("shell pressure (kPa)")
     ax.set_ylabel("drive-speed PME (%)  [+ = model too fast]")
-    ax.set_title("Fig. 13: drive-speed error per pressure")
+    ax.set_title(f"Fig. 13: drive-speed error per pressure{_of(campaign)}")
+    lo, hi = ax.get_ylim()
+    ax.set_ylim(lo, hi + 0.1 * (hi - lo))               # room for the key line above the tallest bar
     ax.text(0.01, 0.98, "bars: mean of runs   dots: runs   whiskers: 95% over friction-posterior draws",
             transform=ax.transAxes, va="top", fontsize=8, color="0.3")
     ax.legend(fontsize=8)
@@ -197,7 +210,7 @@ def fig13_14(summary: str, out13: str, out14: str, out_csv: str, out_md: str) ->
     ax.set_ylim(top=1.12 * span)
     ax.set_xticks(range(len(contacts)), contacts)
     ax.set_ylabel("drive-speed PME averaged over pressures (%)")
-    ax.set_title("Fig. 14: averaged drive speed error")
+    ax.set_title(f"Fig. 14: averaged drive speed error{_of(campaign)}", fontsize=10)
     save(fig, out14)
     lines = ["# Drive-speed point mean error (eq. 12), percent; + = model faster than the robot", "",
               "Eq. 12 is a signed mean: a model that runs fast early and slow late can score near zero. "

@@ -186,7 +186,15 @@ def corner_plot(fit: str, out_png: str) -> None:
     f = load_fit(fit)
     s = samples(f, 20000)
     labels = [f"{c} ({'rad' if c == 'noise_rad' else friction.UNITS.get(c, '-')})" for c in s.columns]
-    fig = corner.corner(s.to_numpy(), labels=labels, quantiles=[0.025, 0.5, 0.975], show_titles=True,
-                        title_fmt=".3g", title_kwargs={"fontsize": 8}, label_kwargs={"fontsize": 8})
-    fig.suptitle(f"posterior: {f['law']} friction on the {f['joint']} joint ({f.get('recording', '')})", y=1.02)
+    k = s.shape[1]
+    # corner lays its K x K grid out with subplots_adjust, which a layout engine (the style's
+    # constrained layout) would ignore: the figure gets none, and room at the top for the title
+    fig = plt.figure(figsize=(2.0 * k + 1.4, 2.0 * k + 1.7), layout="none")
+    corner.corner(s.to_numpy(), fig=fig, labels=labels, quantiles=[0.025, 0.5, 0.975], show_titles=True,
+                  title_fmt=".3g", title_kwargs={"fontsize": 8}, label_kwargs={"fontsize": 8})
+    for ax in fig.axes:
+        ax.tick_params(labelsize=7)
+    fig.subplots_adjust(top=1.0 - 1.2 / (2.0 * k + 1.7), left=0.9 / (2.0 * k + 1.4), bottom=0.9 / (2.0 * k + 1.7))
+    fig.suptitle(f"Posterior: {f['law'].replace('_', '+')} friction, {f['joint']} joint ({f.get('recording', '')})\n"
+                 "dashed: 2.5, 50 and 97.5% quantiles", fontsize=9, y=0.995)
     save(fig, out_png)
