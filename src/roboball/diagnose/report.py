@@ -143,15 +143,16 @@ def _figures(d: Diagnosis, out: Path, drake_base, drake_aug, located_base, locat
             axr.plot(t, drake_aug[w.index] - w.y, color="tab:blue", lw=0.8, label="augmented, fitted")
         cvb = d.baseline.cv_pred.get(w.index)
         if cvb is not None and np.any(np.isfinite(cvb)):
-            axr.plot(t, cvb - w.y, color="tab:orange", lw=0.7, ls="--", label="baseline, held out")
+            axr.plot(t, cvb - w.y, color="tab:purple", lw=0.7, ls="--", label="baseline, held out")
         cv = d.final.cv_pred.get(w.index)
         if d.chosen and cv is not None and np.any(np.isfinite(cv)):
             axr.plot(t, cv - w.y, color="tab:green", lw=0.8, ls="--", label="augmented, held out")
         axr.axhline(0, color="k", lw=0.5)
         axr.set_xlabel("time since the window's start (s)")
         if j == 0:
-            ax.set_ylabel(prep.signal)
-            axr.set_ylabel(f"residual ({prep.unit})")
+            name = prep.signal.rsplit("_rad", 1)[0].replace("_", " ")     # steer_angle_rad -> steer angle
+            ax.set_ylabel(f"{name} ({prep.unit})")
+            axr.set_ylabel(f"model - recording ({prep.unit})")
             ax.legend(fontsize=7, loc="best")
             axr.legend(fontsize=7, loc="best")
     fig.suptitle(f"{prep.label}: {d.verdict}" + (f" (+ {', '.join(d.chosen)})" if d.chosen else ""), fontsize=10)
@@ -173,6 +174,7 @@ def _figures(d: Diagnosis, out: Path, drake_base, drake_aug, located_base, locat
                label="share of squared residual, augmented")
     ax.set_xticks(x)
     ax.set_xticklabels(regs, rotation=30, ha="right", fontsize=8)
+    ax.set_ylabel("share (-)")
     ax.legend(fontsize=7)
     ax.set_title("residual by regime (regimes overlap)", fontsize=10)
     fig.tight_layout()
@@ -183,16 +185,21 @@ def _figures(d: Diagnosis, out: Path, drake_base, drake_aug, located_base, locat
 
     fig, ax = plt.subplots(figsize=(10, 3.2), layout="none")
     for w in wins:
-        ax.plot(w.t, (d.baseline.full.pred[w.index] - w.y) ** 2, color="tab:red", lw=0.7)
+        ax.plot(w.t, (d.baseline.full.pred[w.index] - w.y) ** 2, color="tab:red", lw=0.7,
+                label="baseline" if w.index == 0 else None)
         if d.chosen:
-            ax.plot(w.t, (d.final.full.pred[w.index] - w.y) ** 2, color="tab:blue", lw=0.7)
+            ax.plot(w.t, (d.final.full.pred[w.index] - w.y) ** 2, color="tab:blue", lw=0.7,
+                    label="augmented" if w.index == 0 else None)
     for loc in located_base.windows:
         ax.axvspan(loc["start_s"], loc["end_s"], color="orange", alpha=0.25)
         ax.text(loc["start_s"], ax.get_ylim()[1] * 0.9, f"{loc['regime']} {loc['share_of_residual']:.0%}", fontsize=7)
     ax.set_xlabel("recording time (s)")
     ax.set_ylabel(f"squared residual ({prep.unit}^2)")
-    ax.set_title("where the baseline's residual sits (red: baseline, blue: augmented; shaded: located windows)",
-                 fontsize=9)
+    from matplotlib.patches import Patch
+    handles, _ = ax.get_legend_handles_labels()
+    ax.legend(handles=handles + [Patch(color="orange", alpha=0.25, label="located windows (baseline)")],
+              fontsize=7, loc="upper right")
+    ax.set_title("where the baseline's residual sits", fontsize=9)
     fig.tight_layout()
     f = out / "windows.png"
     savefig_atomic(fig, f, dpi=110)
