@@ -56,7 +56,7 @@ def test_editing_a_paper_figure_does_not_touch_the_stages_before_it():
 
 
 def test_fingerprints_change_with_what_the_stage_runs_and_nothing_else(tmp_path):
-    root = tmp_path / "roboball"
+    root = tmp_path / "src" / "roboball"           # the checkout's layout: the lock file is at tmp_path
     shutil.copytree(C.PACKAGE_ROOT, root, ignore=shutil.ignore_patterns("__pycache__"))
     cfg = tmp_path / "configs"
     cfg.mkdir()
@@ -83,4 +83,17 @@ def test_fingerprints_change_with_what_the_stage_runs_and_nothing_else(tmp_path)
     facts = C.stage_fingerprints(cfg, root)
     refit = {s for s in again if again[s] != facts[s]}
     assert {"ramp-sim", "friction-fit", "table2", "fig10"} <= refit and "uncertainty-report" not in refit, refit
+
+    # every stage: the runner that converts its arguments, and the pinned environment
+    runner = root / "pipeline_cli.py"
+    runner.write_text(runner.read_text() + "\n# an edit of the stage runner\n")
+    C.clear_caches()
+    run = C.stage_fingerprints(cfg, root)
+    assert all(run[s] != facts[s] for s in facts)
+    chain = C.source_fingerprint("roboball.identify.friction_fit", root)
+    (tmp_path / "requirements.lock").write_text("drake==1.51.1\n")
+    C.clear_caches()
+    locked = C.stage_fingerprints(cfg, root)
+    assert all(locked[s] != run[s] for s in run)
+    assert C.source_fingerprint("roboball.identify.friction_fit", root) != chain    # MCMC chains restart too
     C.clear_caches()

@@ -1,6 +1,7 @@
 """What a pipeline stage's result depends on besides its data: the package's source files it
 runs (its module and every roboball module that module imports, directly or inside a function,
-transitively) and, when those read the robot facts, `configs/robot.yaml`.
+transitively, and the stage runner roboball.pipeline_cli), when those read the robot facts
+`configs/robot.yaml`, and the pinned environment `requirements.lock`.
 
 The Snakemake rules put `stage_fingerprint(stage)` in their params, so an edit of a friction law
 reruns the fits and simulations that use it, an edit of a figure module reruns only its figures,
@@ -22,6 +23,11 @@ STAGE_MODULES = ("roboball.pipeline.ident", "roboball.pipeline.simulation", "rob
                  "roboball.pipeline.friction_figs", "roboball.pipeline.report", "roboball.pipeline.friction",
                  "roboball.pipeline.deflating", "roboball.pipeline.diagnosis")
 ROBOT_FACTS_READER = "roboball.config"
+# Run by every stage besides its own closure: the runner that turns `roboball stage NAME --arg`
+# into the call (only its own file: its imports are the CLI's, not the stage's).
+STAGE_RUNNER = "roboball.pipeline_cli"
+# The pinned environment (drake, numpy, emcee, ...): an upgrade can change any number.
+LOCK_FILE = "requirements.lock"
 
 
 def module_file(module: str, root: Path = PACKAGE_ROOT) -> Path | None:
@@ -113,13 +119,18 @@ def stage_module(stage: str, root: Path = PACKAGE_ROOT) -> str:
 
 def _fingerprint(modules: list[str], sources: dict[str, bytes], config_dir: Path, root: Path) -> str:
     """Hash of the modules' sources (each file read once into `sources`), plus robot.yaml when
-    the modules include the robot facts' reader."""
+    the modules include the robot facts' reader, plus the environment's lock file (beside the
+    package's src/ folder) when there is one."""
     h = hashlib.sha256()
     files = [(m, m) for m in modules] + ([("robot.yaml", None)] if ROBOT_FACTS_READER in modules else [])
     for name, m in files:
         if name not in sources:
             sources[name] = (module_file(m, root) if m else config_dir / "robot.yaml").read_bytes()
         h.update(name.encode() + b"\0" + sources[name] + b"\0")
+    lock = root.parent.parent / LOCK_FILE
+    if LOCK_FILE not in sources:
+        sources[LOCK_FILE] = lock.read_bytes() if lock.is_file() else b""
+    h.update(LOCK_FILE.encode() + b"\0" + sources[LOCK_FILE] + b"\0")
     return h.hexdigest()[:16]
 
 
@@ -131,13 +142,14 @@ def source_fingerprint(module: str, root: Path = PACKAGE_ROOT) -> str:
 
 def stage_fingerprint(stage: str, config_dir: str | Path = "configs", root: Path = PACKAGE_ROOT) -> str:
     """A short hash of the stage's source files (and of robot.yaml when it reads the robot facts)."""
-    return _fingerprint(closure(stage_module(stage, root), root), {}, Path(config_dir), root)
+    modules = sorted(set(closure(stage_module(stage, root), root)) | {STAGE_RUNNER})
+    return _fingerprint(modules, {}, Path(config_dir), root)
 
 
 def stage_fingerprints(config_dir: str | Path = "configs", root: Path = PACKAGE_ROOT) -> dict[str, str]:
     """Stage name (with -) -> fingerprint, for every stage of every stage module (each source
     file read once; computed while Snakemake builds the DAG)."""
     sources: dict[str, bytes] = {}
-    closures = {mod: closure(mod, root) for mod in set(_stage_table(root).values())}
+    closures = {mod: sorted(set(closure(mod, root)) | {STAGE_RUNNER}) for mod in set(_stage_table(root).values())}
     return {stage: _fingerprint(closures[mod], sources, Path(config_dir), root)
             for stage, mod in _stage_table(root).items()}
