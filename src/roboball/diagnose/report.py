@@ -266,6 +266,9 @@ def report_md(d: Diagnosis, js: dict, located_base, located_final, figures, drak
               _md_table([(r["regime"], f"{r['share_of_residual']:.0%}", f"{r['share_of_samples']:.0%}",
                           f"{r['concentration']:.2f}") for r in located_base.regimes],
                         ["regime", "share of squared residual", "share of samples", "concentration"]), "",
+              "Regimes overlap (a sample can be fast and near a reversal), so their shares do not add up to "
+              "100%; concentration is the share of the residual over the share of the samples (above 1: the "
+              "residual gathers there).", "",
               "![residual by regime](regimes.png)", "", "![residual in time](windows.png)", ""]
     lines += ["## Missing physics", ""]
     if js["missing_physics"]:
@@ -299,7 +302,9 @@ def report_md(d: Diagnosis, js: dict, located_base, located_final, figures, drak
                         ["RMS residual (" + u + ")", "baseline", "augmented"]), "",
               "Held out: " + ("leave one release out (the model fitted on the other releases, then only the "
                               "held-out release's state fitted)" if len(prep.windows) > 1 else
-                              f"{d.settings.n_blocks} contiguous time blocks, each predicted by a fit to the others"),
+                              f"{d.settings.n_blocks} contiguous time blocks, each predicted by a fit to the others")
+              + (". The baseline fits no parameter of its own besides the release states, so its held-out error "
+                 "is (nearly) its fitted error." if not d.model.base_params else "."),
               "", "![recording, baseline and augmented model in Drake](overlay.png)", ""]
     lines += ["## Selection", "", "Each round adds every remaining candidate in turn and refits by simulation "
               f"error; the best {d.settings.top_k} by fit are cross-validated. A candidate qualifies when it "
