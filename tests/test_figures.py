@@ -68,6 +68,10 @@ def test_fig13_names_the_campaign_and_leaves_room_for_its_key(tmp_path, monkeypa
     fig13, fig14 = saved
     top = fig13.axes[0]
     assert top.get_title() == "Fig. 13: drive-speed error per pressure (virtual test bed recordings)"
-    assert fig14.axes[0].get_title().endswith("(virtual test bed recordings)")
+    assert fig14._suptitle.get_text().endswith("(virtual test bed recordings)")
+    # Fig. 14: the signed mean of eq. 12, and beside it the absolute one on a log scale
+    signed, absolute = fig14.axes
+    assert absolute.get_yscale() == "log" and "cannot cancel" in absolute.get_title()
+    assert [round(b.get_height(), 2) for b in absolute.patches] == [40.53, 0.73, 30.53, 0.83]   # mean |error| per model
     tallest = max(b.get_height() for b in top.patches)
     assert top.get_ylim()[1] > 1.05 * tallest
