@@ -759,7 +759,7 @@ def sample_posterior(problem: FrictionProblem, lsq: dict, chain_path: str | os.P
     if chain_path.exists():
         stored = _meta_attrs(chain_path)
         try:
-            it = emcee.backends.HDFBackend(str(chain_path), name="mcmc", read_only=True).iteration
+            it = emcee.backends.HDFBackend(str(chain_path), name="mcmc", read_only=True).iteration  # checkpoint: read only
         except Exception as exc:   # noqa: BLE001 - an unreadable file is a user-facing problem
             if stale != "restart":
                 raise RoboballError(f"{chain_path}: cannot read the stored chain ({exc}); delete it to start afresh")
