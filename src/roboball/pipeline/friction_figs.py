@@ -103,8 +103,10 @@ def fig_stand_fits(recording: str, releases: str, fits: list, out_png: str, titl
             q0 = angles[i] if angles and i < len(angles) else r["y_release"]
             ts, ys = _drake_swing(rec.kind, f["law"], {**f.get("fixed", {}), **medians(f)}, q0,
                                   r["t_end_s"] - r["t_release_s"])
+            unconverged = not f.get("convergence", {}).get("converged", True)
             ax.plot(ts, ys, color=LAW_COLOURS[f["law"]], lw=1.4,
-                    label=f"Drake, {LAW_LABELS[f['law']]} (rmse {f['fit']['rmse_rad'] * 1e3:.0f} mrad)")
+                    label=f"Drake, {LAW_LABELS[f['law']]} (rmse {f['fit']['rmse_rad'] * 1e3:.0f} mrad"
+                          + ("; chain not converged)" if unconverged else ")"))
         ax.set_ylabel(f"{sig[:-4].replace('_', ' ')} (rad)")
         ax.set_title(f"release {i + 1} at {r['t_release_s']:.2f} s", fontsize=9)
         if i == 0:
