@@ -9,7 +9,11 @@ validate(config, "configs/schema/config.schema.yaml")
 # The robot facts (and every other configs/*.yaml with a schema, e.g. the friction priors) are
 # checked before any job runs; every stage then reads this workflow's configs/ folder.
 import os
+import sys
 os.environ.setdefault("ROBOBALL_CONFIG_DIR", os.path.abspath("configs"))
+# matplotlib's font cache per environment, not the user's shared one: a cache written by another
+# matplotlib can make the PDFs embed another DejaVu Sans file (same pixels, other bytes).
+os.environ.setdefault("MPLCONFIGDIR", os.path.join(sys.prefix, "matplotlib-config"))
 from roboball.checks import check_config_dir
 from roboball.errors import RoboballError
 try:
