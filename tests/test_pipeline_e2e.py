@@ -37,8 +37,9 @@ def _copy_repo(dst: Path) -> Path:
 
 
 def _smk(workdir, *args, check=True):
-    cmd = [SNAKEMAKE, "--cores", "2", "--configfile", "configs/config.yaml", str(REPO / "tests/data/config_e2e.yaml"),
-           "--rerun-triggers", "mtime", "input", "params", "code", *args]
+    # args (flags and targets) first: --configfile and --rerun-triggers take every word after them
+    cmd = [SNAKEMAKE, *args, "--cores", "2", "--configfile", "configs/config.yaml",
+           str(REPO / "tests/data/config_e2e.yaml"), "--rerun-triggers", "mtime", "input", "params", "code"]
     r = subprocess.run(cmd, cwd=workdir, capture_output=True, text=True)
     if check and r.returncode != 0:
         raise AssertionError(f"snakemake {' '.join(args)} failed:\n{r.stdout[-3000:]}\n{r.stderr[-5000:]}")
