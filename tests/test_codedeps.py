@@ -91,6 +91,13 @@ def test_fingerprints_change_with_what_the_stage_runs_and_nothing_else(tmp_path)
     run = C.stage_fingerprints(cfg, root)
     assert all(run[s] != facts[s] for s in facts)
     chain = C.source_fingerprint("roboball.identify.friction_fit", root)
+    # the fingerprinting itself is bookkeeping: the friction fit imports it (for its chains'
+    # identity), yet an edit of it reruns nothing and restarts no chain
+    book = root / "pipeline" / "codedeps.py"
+    book.write_text(book.read_text() + "\n# an edit of the bookkeeping\n")
+    C.clear_caches()
+    assert C.stage_fingerprints(cfg, root) == run
+    assert C.source_fingerprint("roboball.identify.friction_fit", root) == chain
     (tmp_path / "requirements.lock").write_text("drake==1.51.1\n")
     C.clear_caches()
     locked = C.stage_fingerprints(cfg, root)

@@ -28,6 +28,9 @@ ROBOT_FACTS_READER = "roboball.config"
 STAGE_RUNNER = "roboball.pipeline_cli"
 # The pinned environment (drake, numpy, emcee, ...): an upgrade can change any number.
 LOCK_FILE = "requirements.lock"
+# Bookkeeping that computes fingerprints and changes no result: importing it (the friction fit
+# does, to fingerprint its MCMC chains) makes no module depend on it.
+BOOKKEEPING = frozenset({"roboball.pipeline.codedeps"})
 
 
 def module_file(module: str, root: Path = PACKAGE_ROOT) -> Path | None:
@@ -69,7 +72,7 @@ def _imports(module: str, root: Path) -> tuple[str, ...]:
                 if module_file(f"{target}.{a.name}", root) is not None:
                     found.add(f"{target}.{a.name}")
     with_parents = set()
-    for m in found:
+    for m in found - BOOKKEEPING:
         parts = m.split(".")
         with_parents.update(".".join(parts[:k]) for k in range(1, len(parts) + 1))
     return tuple(sorted(m for m in with_parents if module_file(m, root) is not None))
