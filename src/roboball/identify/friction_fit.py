@@ -772,8 +772,8 @@ def sample_posterior(problem: FrictionProblem, lsq: dict, chain_path: str | os.P
             print(f"{chain_path}: the stored chain is of a different fit (differs in {', '.join(diff)}); "
                   "sampling afresh", file=sys.stderr)
             it = 0
-        if it == 0:
-            chain_path.unlink()
+        if it == 0 and stale == "restart":
+            chain_path.unlink()   # the pipeline's cache starts afresh; a user's empty chain is reset below
         resumed_from = int(it)
     backend = emcee.backends.HDFBackend(str(chain_path), name="mcmc")  # checkpoint: resumable emcee chain, checked by fingerprint on reuse
 
