@@ -75,3 +75,23 @@ def test_fig13_names_the_campaign_and_leaves_room_for_its_key(tmp_path, monkeypa
     assert [round(b.get_height(), 2) for b in absolute.patches] == [40.53, 0.73, 30.53, 0.83]   # mean |error| per model
     tallest = max(b.get_height() for b in top.patches)
     assert top.get_ylim()[1] > 1.05 * tallest
+
+
+def test_fig14_absolute_panel_says_when_a_model_has_no_error_to_show(tmp_path, monkeypatch):
+    """A log axis cannot draw 0 or NaN: such a model is labelled, not dropped, and a summary
+    without any finite absolute error still makes both figures and the table."""
+    import roboball.pipeline.figures as figures
+
+    saved = []
+    monkeypatch.setattr(figures, "save", lambda fig, path: saved.append(fig))
+    src = pd.read_csv(_summary(tmp_path / "s.csv"))
+    src.loc[src.contact == "diagnosed", "mape_percent"] = 0.0
+    src.to_csv(tmp_path / "zero.csv", index=False)
+    out = [str(tmp_path / f) for f in ("fig13.png", "fig14.png", "t.csv", "t.md")]
+    fig13_14(str(tmp_path / "zero.csv"), *out)
+    absolute = saved[-1].axes[1]
+    assert len(absolute.patches) == 3 and "0%" in [t.get_text() for t in absolute.texts]
+    src["mape_percent"] = float("nan")
+    src.to_csv(tmp_path / "nan.csv", index=False)
+    fig13_14(str(tmp_path / "nan.csv"), *out)
+    assert (tmp_path / "t.md").exists() and len(saved) == 4

@@ -214,13 +214,22 @@ def fig13_14(summary: str, out13: str, out14: str, out_csv: str, out_md: str, ca
     ax.set_ylabel("drive-speed PME averaged over pressures (%)")
     ax.set_title("eq. 12 (signed): + = model too fast", fontsize=9)
     mabs = s.groupby("contact").mape_percent.mean().reindex(contacts)
-    ax_abs.bar(range(len(contacts)), mabs.values, color=[CONTACT_COLOURS[c] for c in contacts], alpha=0.85)
-    for i, c in enumerate(contacts):
-        ax_abs.plot(np.full((s.contact == c).sum(), i), s.mape_percent[s.contact == c], "k.", ms=4)
-        ax_abs.annotate(f"{mabs[c]:.2f}%", (i, mabs[c]), xytext=(0, 4), textcoords="offset points",
-                        ha="center", va="bottom", fontsize=9)
+    shown = np.isfinite(mabs.values) & (mabs.values > 0)          # a log axis cannot show 0 or NaN
+    ax_abs.bar(np.arange(len(contacts))[shown], mabs.values[shown],
+               color=[CONTACT_COLOURS[c] for c, ok in zip(contacts, shown) if ok], alpha=0.85)
     ax_abs.set_yscale("log")
-    ax_abs.set_ylim(top=3.0 * float(np.nanmax(s.mape_percent)))
+    for i, c in enumerate(contacts):
+        r = s.mape_percent[(s.contact == c) & (s.mape_percent > 0)]
+        ax_abs.plot(np.full(len(r), i), r, "k.", ms=4)
+        if shown[i]:
+            ax_abs.annotate(f"{mabs[c]:.2f}%", (i, mabs[c]), xytext=(0, 4), textcoords="offset points",
+                            ha="center", va="bottom", fontsize=9,
+                            bbox=dict(boxstyle="round,pad=0.15", fc="white", ec="none", alpha=0.8))
+        else:                                  # said, not silently dropped
+            ax_abs.annotate("0%" if mabs[c] == 0 else "n/a", (i, 0.02), xycoords=("data", "axes fraction"),
+                            ha="center", va="bottom", fontsize=9)
+    if shown.any():
+        ax_abs.set_ylim(top=3.0 * float(np.nanmax(s.mape_percent)))
     ax_abs.set_xticks(range(len(contacts)), contacts)
     ax_abs.set_ylabel("mean |point error| over pressures (%)")
     ax_abs.set_title("the same samples, absolute: errors cannot cancel", fontsize=9)
