@@ -5,15 +5,23 @@ from snakemake.utils import validate
 
 configfile: "configs/config.yaml"
 validate(config, "configs/schema/config.schema.yaml")
+from roboball.config import first_nonfinite   # JSON Schema's bounds cannot refuse NaN
+if first_nonfinite(config):
+    raise WorkflowError("configs/config.yaml: field '{}': {} is not a finite number".format(*first_nonfinite(config)))
 
 # The robot facts (and every other configs/*.yaml with a schema, e.g. the friction priors) are
 # checked before any job runs; every stage then reads this workflow's configs/ folder.
 import os
 import sys
 os.environ.setdefault("ROBOBALL_CONFIG_DIR", os.path.abspath("configs"))
-# matplotlib's font cache per environment, not the user's shared one: a cache written by another
-# matplotlib can make the PDFs embed another DejaVu Sans file (same pixels, other bytes).
-os.environ.setdefault("MPLCONFIGDIR", os.path.join(sys.prefix, "matplotlib-config"))
+# matplotlib's configuration and font cache per environment, not the user's shared ones: a cache
+# written by another matplotlib can make the PDFs embed another DejaVu Sans file (same pixels,
+# other bytes), and a personal matplotlibrc would restyle the figures.  In the environment when it
+# is writable, else beside the results.
+_mpl = os.path.join(sys.prefix, "matplotlib-config")
+if not (os.access(sys.prefix, os.W_OK) or os.path.isdir(_mpl)):
+    _mpl = os.path.abspath(os.path.join("results", ".matplotlib-config"))
+os.environ["MPLCONFIGDIR"] = _mpl
 from roboball.checks import check_config_dir
 from roboball.errors import RoboballError
 try:

@@ -118,6 +118,8 @@ BAD_PIPELINE_CONFIG = {  # case -> (edit of config.yaml, words of the error)
     "ramp_dt_above_10ms": (lambda c: c["ramp"].update(dt_s=0.05), ["0.05 is greater than the maximum of 0.01"]),
     "unknown_key": (lambda c: c.update(sead=1), ["'sead' was unexpected"]),
     "wrong_type": (lambda c: c.update(seed="12345"), ["'12345' is not of type 'integer'"]),
+    # NaN passes every JSON-Schema bound
+    "nan_ramp_dt": (lambda c: c["ramp"].update(dt_s=float("nan")), ["ramp.dt_s", "not a finite number"]),
 }
 
 
@@ -142,7 +144,7 @@ def test_check_config_accepts_the_repository_configs():
     assert "robot.yaml" in r.stdout and "config.yaml" in r.stdout
 
 
-@pytest.mark.parametrize("case", ["dt_above_10ms", "robot:negative_friction"])
+@pytest.mark.parametrize("case", ["dt_above_10ms", "nan_ramp_dt", "robot:negative_friction"])
 def test_snakemake_refuses_bad_configs_before_any_job(tmp_path, case):
     work = _workflow_copy(tmp_path)
     if case.startswith("robot:"):

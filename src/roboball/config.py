@@ -29,7 +29,7 @@ def _path_of_error(err) -> str:
     return ".".join(parts) if parts else "(top level)"
 
 
-def _first_nonfinite(node, where: tuple = ()):
+def first_nonfinite(node, where: tuple = ()):
     """(dotted field, value) of the first NaN or infinite number in a YAML tree, else None.
     JSON Schema's bounds cannot refuse NaN (every comparison with it is false), and YAML
     writes both as plain words (.nan, .inf)."""
@@ -37,7 +37,7 @@ def _first_nonfinite(node, where: tuple = ()):
         return None if math.isfinite(node) else (".".join(where) or "(top level)", node)
     items = node.items() if isinstance(node, dict) else enumerate(node) if isinstance(node, list) else ()
     for key, value in items:
-        hit = _first_nonfinite(value, where + (str(key),))
+        hit = first_nonfinite(value, where + (str(key),))
         if hit:
             return hit
     return None
@@ -63,7 +63,7 @@ def load_yaml(path: str | os.PathLike, schema: str | None = None) -> dict:
         raise ConfigError(f"{path}: {where}: not valid YAML ({getattr(exc, 'problem', exc)})")
     if not isinstance(data, dict):
         raise ConfigError(f"{path}: expected a mapping at the top level")
-    bad = _first_nonfinite(data)
+    bad = first_nonfinite(data)
     if bad:
         hint = " (leave an optional bound out rather than write .inf)" if math.isinf(bad[1]) else ""
         raise ConfigError(f"{path}: field '{bad[0]}': {bad[1]} is not a finite number{hint}")

@@ -29,7 +29,7 @@ rule fig10:
     log: "results/logs/fig10.log"
     shell:
         "{ROBOBALL} fig10 --points {input.points} --regression {input.regression} --sims {input.sims} "
-        "--out-png {output.png} --campaign '{params.campaign}' > {log} 2>&1"
+        "--out-png {output.png} --campaign {params.campaign:q} > {log} 2>&1"
 
 
 rule fig11:
@@ -50,7 +50,7 @@ rule fig11:
     shell:
         "{ROBOBALL} fig11 --sweep {input.sweep} --points {input.points} --out-png {output.png} "
         "--out-table {output.table} --out-md {output.md} --carried-modulus {params.m} --carried-dissipation {params.d} "
-        "--campaign '{params.campaign}' > {log} 2>&1"
+        "--campaign {params.campaign:q} > {log} 2>&1"
 
 
 rule fig13_14:
@@ -65,7 +65,7 @@ rule fig13_14:
     log: "results/logs/fig13_14.log"
     shell:
         "{ROBOBALL} fig13-14 --summary {input} --out13 {output.fig13} --out14 {output.fig14} "
-        "--out-csv {output.csv} --out-md {output.md} --campaign '{params.campaign}' > {log} 2>&1"
+        "--out-csv {output.csv} --out-md {output.md} --campaign {params.campaign:q} > {log} 2>&1"
 
 
 REPLAYS = {"steer_stand": ("point", 0.8), "drive_stand": ("point", 0.6), "shell_rock": ("injected", -0.3),
