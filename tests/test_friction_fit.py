@@ -217,9 +217,9 @@ def test_a_chain_sampled_by_other_code_or_robot_facts_is_not_resumed(tmp_path, m
     lsq = F.least_squares_fit(problem, seed=0)
     kw = dict(seed=4, n_walkers=10, autocorr_multiple=1e6, chunk=5, min_steps=5, adapt_schedule=(10, 20))
     fresh = F.sample_posterior(problem, lsq, tmp_path / "fresh.h5", max_steps=30, **kw)
-    monkeypatch.setattr(F, "_CODE", "0000000000000000")           # the chain of an older roboball
-    F.sample_posterior(problem, lsq, tmp_path / "old.h5", max_steps=30, **kw)
-    monkeypatch.setattr(F, "_CODE", None)
+    with monkeypatch.context() as m:                                # the chain of an older roboball
+        m.setattr(F, "_code_fingerprint", lambda: "0000000000000000")
+        F.sample_posterior(problem, lsq, tmp_path / "old.h5", max_steps=30, **kw)
     with pytest.raises(RoboballError, match="different fit \\(differs in code\\)"):
         F.sample_posterior(problem, lsq, tmp_path / "old.h5", max_steps=30, **kw)
     again = F.sample_posterior(problem, lsq, tmp_path / "old.h5", max_steps=30, stale="restart", **kw)

@@ -15,8 +15,8 @@ hash.
 from __future__ import annotations
 
 import contextlib
-import errno
 import csv
+import errno
 import io
 import json
 import math

@@ -50,7 +50,7 @@ def diagnose(recording, out_dir=None, kind: str | None = None, pressure_kpa: flo
         from .locate import classify, locate
         from .report import diagnosis_json
         labels = classify(d.prep)
-        js = diagnosis_json(d, locate(d.prep, d.baseline.full.pred, labels), locate(d.prep, d.final.full.pred, labels))
+        js = diagnosis_json(d, locate(d.prep, d.baseline.full.pred, labels))
         return d, js
     from .report import write
     return d, write(d, out_dir, drake=drake)

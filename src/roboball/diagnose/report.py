@@ -85,7 +85,7 @@ def missing_physics(d: Diagnosis) -> list:
     return out
 
 
-def diagnosis_json(d: Diagnosis, located_base, located_final, drake_before=None, drake_after=None) -> dict:
+def diagnosis_json(d: Diagnosis, located_base, drake_before=None, drake_after=None) -> dict:
     # The contract's `located` is where the BASELINE's residual concentrates (its shares sum to at
     # most 1); where an unexplained residual remains after the effects is in report.md and in
     # details.json ("located_augmented").
@@ -237,6 +237,11 @@ def _param_cells(effect: str, name: str, value, ci) -> tuple:
     return f"{name} = {_fmt(value)} {unit}", f"[{_fmt(ci[0])}, {_fmt(ci[1])}]"
 
 
+def _assignments(values: dict) -> str:
+    """"viscous_c = 0.689, release_1_rad = 0.889" for the report."""
+    return ", ".join(f"{k} = {v}" for k, v in values.items())
+
+
 def _fmt(x, n=4):
     if x is None or (isinstance(x, float) and not math.isfinite(x)):
         return "-"
@@ -250,10 +255,10 @@ def report_md(d: Diagnosis, js: dict, located_base, located_final, figures, drak
              f"**kind** {prep.kind} - **signal** {prep.signal} - **verdict: {d.verdict}**"
              + (f" - missing physics: {', '.join(d.chosen)}" if d.chosen else ""), "",
              f"Baseline: {d.model.description}.", "",
-             f"Fitted inside the baseline: " + ", ".join(f"{k} = {v}" for k, v in js["baseline"]["fitted"].items()),
-             "", *([f"Refitted with the effects (the augmented model): " + ", ".join(
-                 f"{k} = {v}" for k, v in js["baseline"]["refitted_with_effects"].items()), ""]
-                   if "refitted_with_effects" in js["baseline"] else []),
+             f"Fitted inside the baseline: {_assignments(js['baseline']['fitted'])}", "",
+             *([f"Refitted with the effects (the augmented model): "
+                f"{_assignments(js['baseline']['refitted_with_effects'])}", ""]
+               if "refitted_with_effects" in js["baseline"] else []),
              f"Noise level of the recording: {prep.noise:.3g} {u}; {len(prep.windows)} release(s) "
              f"({', '.join(f'{w.t0:.2f}-{w.t[-1]:.2f} s (from the {w.start}; {w.end_reason})' for w in prep.windows)}).",
              "", "A window starts at the first turning point after the hand lets go when enough swings follow "
@@ -347,7 +352,7 @@ def write(d: Diagnosis, out_dir, drake: bool = True) -> dict:
         drake_base, drake_aug = d.baseline.full.pred, d.final.full.pred
         stats = (None, None)
     d.timings["drake_s"] = time.perf_counter() - t0
-    js = diagnosis_json(d, loc_base, loc_final, *stats)
+    js = diagnosis_json(d, loc_base, *stats)
     figures = _figures(d, out, drake_base, drake_aug, loc_base, loc_final)
     details = {
         "recording": str(d.prep.label),

@@ -54,6 +54,7 @@ Every random draw comes from the ``seed`` argument.
 """
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import math
@@ -685,16 +686,11 @@ def _burn_and_tau(chain: np.ndarray) -> tuple[int, np.ndarray]:
     return burn, tau
 
 
+@functools.lru_cache(maxsize=None)
 def _code_fingerprint() -> str:
-    """The source of the log-probability: this module's import closure (cached per process)."""
-    global _CODE
-    if _CODE is None:
-        from ..pipeline.codedeps import source_fingerprint
-        _CODE = source_fingerprint(__name__)
-    return _CODE
-
-
-_CODE: str | None = None
+    """The source of the log-probability: this module's import closure (once per process)."""
+    from ..pipeline.codedeps import source_fingerprint
+    return source_fingerprint(__name__)
 
 
 def _meta_attrs(path: Path, meta: dict | None = None) -> dict | None:

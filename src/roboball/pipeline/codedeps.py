@@ -143,16 +143,20 @@ def source_fingerprint(module: str, root: Path = PACKAGE_ROOT) -> str:
     return _fingerprint([m for m in closure(module, root) if m != ROBOT_FACTS_READER], {}, Path("."), root)
 
 
+def _stage_modules(module: str, root: Path) -> list[str]:
+    """What a stage defined in `module` runs: its closure and the stage runner."""
+    return sorted(set(closure(module, root)) | {STAGE_RUNNER})
+
+
 def stage_fingerprint(stage: str, config_dir: str | Path = "configs", root: Path = PACKAGE_ROOT) -> str:
     """A short hash of the stage's source files (and of robot.yaml when it reads the robot facts)."""
-    modules = sorted(set(closure(stage_module(stage, root), root)) | {STAGE_RUNNER})
-    return _fingerprint(modules, {}, Path(config_dir), root)
+    return _fingerprint(_stage_modules(stage_module(stage, root), root), {}, Path(config_dir), root)
 
 
 def stage_fingerprints(config_dir: str | Path = "configs", root: Path = PACKAGE_ROOT) -> dict[str, str]:
     """Stage name (with -) -> fingerprint, for every stage of every stage module (each source
     file read once; computed while Snakemake builds the DAG)."""
     sources: dict[str, bytes] = {}
-    closures = {mod: sorted(set(closure(mod, root)) | {STAGE_RUNNER}) for mod in set(_stage_table(root).values())}
+    closures = {mod: _stage_modules(mod, root) for mod in set(_stage_table(root).values())}
     return {stage: _fingerprint(closures[mod], sources, Path(config_dir), root)
             for stage, mod in _stage_table(root).items()}

@@ -188,11 +188,11 @@ def injected_term(k, c, shell: ShellParams, normal=(0.0, 0.0, 1.0)):
 
 
 def shell_tags(robot: RobotFacts, spec: SimSpec) -> ShellTags:
-    """Contact properties of the bedliner for this spec (eq. 10-11 for hydroelastic)."""
-    mu = float(robot.data["shell"]["ground_friction"])
-    hint = spec.resolution_hint or float(robot.data["shell"]["hydroelastic_resolution_hint_m"])
-    defaults = robot.data["hydroelastic_defaults"]
-    modulus, dissipation = float(defaults["modulus_pa"]), float(defaults["hunt_crossley_s_m"])
+    """Contact properties of the bedliner for this spec (eq. 10-11 for hydroelastic), starting
+    from the robot facts' own (ShellTags.of, what an exported URDF carries)."""
+    facts = ShellTags.of(robot)
+    hint = spec.resolution_hint or facts.resolution_hint
+    modulus, dissipation = facts.hydro_modulus, facts.hunt_crossley
     if spec.contact == "hydroelastic":
         sp = spec.shell
         if sp.hydro_modulus is not None:
@@ -206,7 +206,7 @@ def shell_tags(robot: RobotFacts, spec: SimSpec) -> ShellTags:
             dissipation = c
         modulus *= sp.modulus_scale
         dissipation *= sp.dissipation_scale
-    return ShellTags(hydro_modulus=modulus, hunt_crossley=dissipation, mu=mu, resolution_hint=hint)
+    return replace(facts, hydro_modulus=modulus, hunt_crossley=dissipation, resolution_hint=hint)
 
 
 def ground_normal(alpha: float, heading_deg: float = 0.0) -> np.ndarray:
