@@ -1,14 +1,7 @@
 # Beyond the paper (issue 9): Fig. S1, a ramp descent while the shell deflates, next to the
 # runs at constant start and end pressure (roboball.sim.pressure; config section deflating_ramp).
 DEFLATE = config.get("deflating_ramp", {})
-_sched = DEFLATE.get("schedule", {"time_s": [0.0, 3.0], "pressure_kpa": [20.7, 6.9]})
-
-
-def _schedule_args():
-    if "csv" in _sched:
-        return f"--schedule-csv {_sched['csv']}"
-    return ("--schedule-time-s " + " ".join(str(x) for x in _sched["time_s"]) +
-            " --schedule-pressure-kpa " + " ".join(str(x) for x in _sched["pressure_kpa"]))
+_sched = DEFLATE.get("schedule", {})
 
 
 rule figS1_deflating_ramp:
@@ -21,7 +14,7 @@ rule figS1_deflating_ramp:
         csv="results/deflating/figS1_traces.csv",
     params:
         code=CODE["deflating-ramp"],
-        schedule=_schedule_args(),
+        schedule=schedule_args(_sched),
         duration=DEFLATE.get("duration_s", 3.0),
         contacts=" ".join(DEFLATE.get("contact_models", ["injected", "hydroelastic"])),
         geometry=DEFLATE.get("injected_geometry", "planar"),

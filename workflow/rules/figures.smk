@@ -68,10 +68,6 @@ rule fig13_14:
         "--out-csv {output.csv} --out-md {output.md} --campaign {params.campaign:q} > {log} 2>&1"
 
 
-REPLAYS = {"steer_stand": ("point", 0.8), "drive_stand": ("point", 0.6), "shell_rock": ("injected", -0.3),
-           "ramp": ("hydroelastic", 0.0)}
-
-
 rule replay:
     input: regression="results/identify/shell_regression.csv"
     output: report("results/replays/{scenario}.html", category="5 Replays", caption="../report/replay.rst")

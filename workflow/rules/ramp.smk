@@ -52,22 +52,8 @@ rule diagnose:
     shell: "{ROBOBALL} diagnose-recording --recording {input.csv} --out-dir results/diagnose/{wildcards.stem} > {log} 2>&1"
 
 
-def pressure_group(stem):
-    """Name of the ramp runs at the pressure of `stem`: ramp_13.8kpa."""
-    return f"ramp_{float(REC[stem]['pressure_kpa']):g}kpa"
-
-
-RAMP_GROUPS = sorted({pressure_group(s) for s in RAMP})
-
-
-def runs_at(group):
-    return [s for s in RAMP if pressure_group(s) == group]
-
-
-def other_runs(stem):
-    """The other ramp runs at the same pressure (all runs at it when there is only this one)."""
-    same = runs_at(pressure_group(stem))
-    return [s for s in same if s != stem] or same
+RAMP_GROUPS = CAMPAIGN.ramp_groups()
+runs_at, other_runs = CAMPAIGN.runs_at, CAMPAIGN.other_runs
 
 
 RAMP_FRICTION = {"steer": "results/friction/testbed/steer_majd.json", "drive": "results/friction/testbed/drive_majd.json"}
