@@ -56,3 +56,33 @@ def test_impossible_pressures_are_refused():
         shell.contact_volume(0.0, ROBOT.weight_n, ROBOT.radius)
     with pytest.raises(ValueError, match="too low"):
         shell.contact_volume(1e3, ROBOT.weight_n, ROBOT.radius)     # 1 kPa: patch wider than the shell
+
+
+def test_eq11_dissipation_is_c_inject_and_the_drake_plant_takes_it_from_that_law(monkeypatch):
+    from roboball.sim import plant
+    from roboball.sim.plant import ShellParams, SimSpec, shell_tags
+
+    assert shell.hydro_dissipation(0.1, 2.7, ROBOT.M_eq) == shell.c_inject(0.1, 2.7, ROBOT.M_eq)
+    spec = SimSpec(kind="shell_rock", contact="hydroelastic", pressure_kpa=13.8,
+                   shell=ShellParams(zeta=0.1, omega_n=2.7, dissipation_scale=1.5, modulus_scale=0.5))
+    tags = shell_tags(ROBOT, spec)
+    assert tags.hunt_crossley == pytest.approx(1.5 * shell.c_inject(0.1, 2.7, ROBOT.M_eq))
+    assert tags.hydro_modulus == pytest.approx(0.5 * shell.hydro_modulus(13.8e3, ROBOT.weight_n, ROBOT.radius))
+    # one source: editing eq. 11's function changes what Drake gets
+    monkeypatch.setattr(plant.shell_laws, "hydro_dissipation", lambda zeta, omega_n, m_eq: 7.0)
+    assert shell_tags(ROBOT, spec).hunt_crossley == pytest.approx(10.5)
+    # a hydroelastic spec without the shell's zeta and omega_n is refused
+    with pytest.raises(ValueError, match="needs the shell's zeta and omega_n"):
+        shell_tags(ROBOT, SimSpec(kind="shell_rock", contact="hydroelastic", pressure_kpa=13.8))
+
+
+def test_the_pressure_schedule_takes_eq10_and_eq11_from_the_laws(monkeypatch):
+    from roboball.sim import pressure
+    from roboball.sim.plant import ShellParams
+
+    laws = pressure.ShellLaws(zeta_a=0.3, zeta_b=-0.05, omega_n_c=2.2, omega_n_d=0.04)
+    m, c = pressure.hydro_properties(ROBOT, ShellParams(dissipation_scale=2.0), laws, 10.0)
+    assert c == pytest.approx(2.0 * shell.c_inject(laws.zeta(10.0), laws.omega_n(10.0), ROBOT.M_eq))
+    assert m == pytest.approx(shell.hydro_modulus(10.0e3, ROBOT.weight_n, ROBOT.radius))
+    monkeypatch.setattr(pressure.shell_laws, "hydro_dissipation", lambda zeta, omega_n, m_eq: 7.0)
+    assert pressure.hydro_properties(ROBOT, ShellParams(), laws, 10.0)[1] == 7.0

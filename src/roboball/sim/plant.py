@@ -202,8 +202,8 @@ def shell_tags(robot: RobotFacts, spec: SimSpec) -> ShellTags:
         if sp.hydro_dissipation is not None:
             dissipation = sp.hydro_dissipation
         else:
-            _, c = shell_coefficients(robot, spec)
-            dissipation = c
+            shell_coefficients(robot, spec)          # refuses a spec without zeta and omega_n
+            dissipation = shell_laws.hydro_dissipation(sp.zeta, sp.omega_n, robot.M_eq)
         modulus *= sp.modulus_scale
         dissipation *= sp.dissipation_scale
     return replace(facts, hydro_modulus=modulus, hunt_crossley=dissipation, resolution_hint=hint)

@@ -283,7 +283,7 @@ def hydro_properties(robot, shell, laws: ShellLaws, p_kpa: float) -> tuple[float
     modulus = shell.hydro_modulus if shell.hydro_modulus is not None else \
         shell_laws.hydro_modulus(p_kpa * 1e3, robot.weight_n, robot.radius)
     dissipation = shell.hydro_dissipation if shell.hydro_dissipation is not None else \
-        laws.coefficients(p_kpa, robot)[1]
+        shell_laws.hydro_dissipation(laws.zeta(p_kpa), laws.omega_n(p_kpa), robot.M_eq)
     return modulus * shell.modulus_scale, dissipation * shell.dissipation_scale
 
 
