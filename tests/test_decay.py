@@ -184,3 +184,93 @@ def test_property_decay_never_crashes(zeta, omega, offset, sign, noise, quantum,
         assert res.omega_d > 0 and np.isfinite(res.omega_n)
         assert res.t_fit_start_s >= rel.t_release_s and res.t_fit_end_s <= rel.t_end_s + 1e-9
         assert np.isfinite(res.rmse)
+
+
+# --------------------------------------------------------------------------------------
+# Error propagation, residual degrees of freedom and cycle lengths
+# --------------------------------------------------------------------------------------
+def _omega_n_of(p):
+    return p[3] / math.sqrt(1.0 - p[2] ** 2)
+
+
+def _fd_delta_se(fit, h=1e-7):
+    """omega_n's standard error by the delta method with a central-difference gradient."""
+    p = np.asarray(fit.params, dtype=float)
+    g = np.zeros(5)
+    for i in range(5):
+        dp = np.zeros(5)
+        dp[i] = h * max(1.0, abs(p[i]))
+        g[i] = (_omega_n_of(p + dp) - _omega_n_of(p - dp)) / (2 * dp[i])
+    return math.sqrt(float(g @ fit.cov @ g))
+
+
+@pytest.mark.parametrize("zeta", [0.05, 0.3, 0.6])
+def test_omega_n_se_matches_finite_difference_delta_method(zeta):
+    from roboball.decay import DampedSineFit
+
+    rng = np.random.default_rng(int(zeta * 100))
+    L = rng.normal(size=(5, 5)) * 0.01
+    cov = L @ L.T + np.diag([1e-6, 1e-4, 4e-4, 1e-4, 1e-3])
+    params = np.array([0.01, 0.5, zeta, 4.0, -0.3])
+    fit = DampedSineFit(t0=0.0, params=params, cov=cov, rmse=0.001, n=100, rho1=0.0, inflation=1.0, success=True)
+    assert fit.omega_n == pytest.approx(4.0 / math.sqrt(1 - zeta ** 2), rel=1e-12)
+    assert fit.omega_n_se == pytest.approx(_fd_delta_se(fit), rel=1e-6)
+    # zeta's uncertainty alone: se = omega_d zeta / (1 - zeta^2)^1.5 * se(zeta)
+    cz = np.zeros((5, 5))
+    cz[2, 2] = 0.02 ** 2
+    fz = DampedSineFit(t0=0.0, params=params, cov=cz, rmse=0.001, n=100, rho1=0.0, inflation=1.0, success=True)
+    assert fz.omega_n_se == pytest.approx(4.0 * zeta / (1 - zeta ** 2) ** 1.5 * 0.02, rel=1e-12)
+    assert fz.omega_n_se == pytest.approx(_fd_delta_se(fz), rel=1e-6)
+
+
+def test_omega_n_se_of_a_real_fit_matches_finite_difference():
+    t, y, _ = synthetic_release_log([dict(offset=0.4, zeta=0.35, omega_n=3.0)], seed=5, noise=0.003, quantum=0.0)
+    (rel,) = find_releases(t, y, "steer_stand")
+    res = extract_decay(t, y, rel)
+    assert res.omega_n_se == pytest.approx(_fd_delta_se(res.fit), rel=1e-6)
+
+
+def test_damped_sine_fit_residual_variance_uses_n_minus_5():
+    """Tiny fit (9 points, 5 parameters): cov = s2 (J^T J)^-1 infl^2 with s2 = RSS / (n - 5)."""
+    from roboball.decay import damped_sine, fit_damped_sine
+
+    truth = np.array([0.02, 1.0, 0.1, 3.0, -0.1])
+    tau = np.linspace(0.0, 4.0, 9)
+    rng = np.random.default_rng(4)
+    y = damped_sine(tau, *truth) + rng.normal(0.0, 0.01, tau.size)
+    fit = fit_damped_sine(tau + 10.0, y, 10.0, truth * 1.02)
+    assert fit.n == 9
+    p = fit.params
+    r = damped_sine(tau, *p) - y
+    rss = float(r @ r)
+    assert fit.rmse == pytest.approx(math.sqrt(rss / 9), rel=1e-9)
+    s2 = rss / (9 - 5)
+    J = np.empty((9, 5))
+    for i in range(5):
+        dp = np.zeros(5)
+        dp[i] = 1e-6
+        J[:, i] = (damped_sine(tau, *(p + dp)) - damped_sine(tau, *(p - dp))) / 2e-6
+    rc = r - r.mean()
+    rho = min(max(float(rc[:-1] @ rc[1:]) / float(rc @ rc), 0.0), 0.99)
+    infl2 = (1 + rho) / (1 - rho)
+    assert fit.inflation ** 2 == pytest.approx(infl2, rel=1e-9)
+    np.testing.assert_allclose(fit.cov, np.linalg.inv(J.T @ J) * s2 * infl2, rtol=1e-5, atol=1e-14)
+
+
+def test_periods_are_full_cycles():
+    """On a synthetic viscous release every reported period (first, last, each) is a full
+    cycle 2 pi / omega_d, not a half cycle."""
+    zeta, omega_n = 0.05, 3.0
+    omega_d = omega_n * math.sqrt(1 - zeta ** 2)
+    t, y, _ = synthetic_release_log([dict(offset=0.5, zeta=zeta, omega_n=omega_n, hold_s=0.8)],
+                                    rest=0.01, seed=3, **LOGGING)
+    (rel,) = find_releases(t, y, "steer_stand")
+    res = extract_decay(t, y, rel)
+    assert len(res.periods_s) >= 3
+    assert res.period_early_s == pytest.approx(2 * math.pi / omega_d, rel=0.03)
+    assert res.period_late_s == pytest.approx(2 * math.pi / omega_d, rel=0.05)
+    np.testing.assert_allclose(res.periods_s, 2 * math.pi / omega_d, rtol=0.05)
+    assert res.period_early_s == pytest.approx(res.period_s, rel=0.03)
+    rec = Recording(pd.DataFrame({"time_s": t, "pipe_angle_rad": y}), {"kind": "shell_rock", "pressure_kpa": 13.8})
+    row = decay_table(rec).iloc[0]
+    assert row["period_early_s"] == pytest.approx(2 * math.pi / omega_d, rel=0.03)

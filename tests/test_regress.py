@@ -156,3 +156,134 @@ def test_regression_errors():
         fit_zeta_exp([6.9, 10.3, 13.8], [0.1, -0.01, 0.12])
     with pytest.raises(RoboballError, match="missing column"):
         regression_table(pd.DataFrame({"pressure_kpa": [1.0], "zeta": [0.1]}))
+
+
+# --------------------------------------------------------------------------------------
+# Weights, interval widths and band formulas checked against hand computations
+# --------------------------------------------------------------------------------------
+SE_UNEQUAL = np.array([0.01, 0.02, 0.05, 0.01, 0.10, 0.03, 0.20, 0.02])
+P_UNEQUAL = np.array([6.9, 8.0, 10.3, 12.0, 13.8, 15.5, 17.2, 20.7])
+
+
+def _wls(x, y, se):
+    """Weighted least squares line by the normal equations: (theta, cov, s2, dof)."""
+    X = np.column_stack([np.ones_like(x), x])
+    W = np.diag(1.0 / se ** 2)
+    M = np.linalg.inv(X.T @ W @ X)
+    theta = M @ X.T @ W @ y
+    r = (y - X @ theta) / se
+    dof = len(x) - 2
+    s2 = float(r @ r) / dof
+    return theta, M * s2, s2, dof
+
+
+def test_weighted_omega_fit_noise_free_recovery():
+    """Noise-free data with very unequal standard errors: the weighted line is exact."""
+    w = C + D * P_UNEQUAL
+    fw = fit_omega_linear(P_UNEQUAL, w, SE_UNEQUAL)
+    assert fw.value("omega_n_c") == pytest.approx(C, rel=1e-12)
+    assert fw.value("omega_n_d") == pytest.approx(D, rel=1e-12)
+    np.testing.assert_allclose(fw.predict(P_UNEQUAL), w, rtol=1e-12)
+    assert fw.se is not None and np.array_equal(fw.se, SE_UNEQUAL)
+
+
+def test_weighted_omega_fit_uses_the_weights():
+    """An outlier with a huge standard error barely moves the weighted fit (but moves an
+    unweighted one a lot), and noisy weighted fits equal the normal-equation solution."""
+    rng = np.random.default_rng(3)
+    p = np.append(P_UNEQUAL, 13.8)
+    w = C + D * p
+    w[-1] += 2.0  # outlier ...
+    se = np.append(SE_UNEQUAL, 1e3)  # ... that the weights say to ignore
+    fw = fit_omega_linear(p, w, se)
+    assert fw.value("omega_n_c") == pytest.approx(C, abs=1e-6)
+    assert fw.value("omega_n_d") == pytest.approx(D, abs=1e-7)
+    fu = fit_omega_linear(p, w)
+    assert abs(fu.value("omega_n_c") - C) > 0.05  # unweighted: pulled by the outlier
+
+    y = C + D * P_UNEQUAL + rng.normal(0.0, SE_UNEQUAL)
+    fw = fit_omega_linear(P_UNEQUAL, y, SE_UNEQUAL)
+    theta, cov, s2, dof = _wls(P_UNEQUAL, y, SE_UNEQUAL)
+    np.testing.assert_allclose(fw.params, theta, rtol=1e-10)
+    np.testing.assert_allclose(fw.cov, cov, rtol=1e-8)
+    assert fw.s2 == pytest.approx(s2, rel=1e-10) and fw.dof == dof
+    # ... and differ from the unweighted solution by much more than the tolerance
+    assert abs(fit_omega_linear(P_UNEQUAL, y).value("omega_n_c") - theta[0]) > 1e-4
+
+
+def test_ci95_coverage_not_too_high():
+    """Upper bound on coverage: nominal 95% intervals cover the truth in about 95% of many
+    seeded draws, not in (nearly) all of them (an interval too wide by 1.5x covers ~99.4%)."""
+    from scipy.stats import t as student_t
+
+    n_draws = 2000
+    rng = np.random.default_rng(123)
+    hits = np.zeros(2)
+    for _ in range(n_draws):
+        y = C + D * P_UNEQUAL + rng.normal(0.0, SE_UNEQUAL)
+        fw = fit_omega_linear(P_UNEQUAL, y, SE_UNEQUAL)
+        for i, (name, tv) in enumerate(zip(fw.names, (C, D))):
+            lo, hi = fw.ci(name)
+            hits[i] += lo <= tv <= hi
+    cov_frac = hits / n_draws
+    assert np.all(cov_frac >= 0.93), cov_frac
+    assert np.all(cov_frac <= 0.97), cov_frac
+    # the interval itself is value +- t_{0.975, n-2} se
+    fw = fit_omega_linear(P_UNEQUAL, C + D * P_UNEQUAL + rng.normal(0.0, SE_UNEQUAL), SE_UNEQUAL)
+    q = student_t.ppf(0.975, len(P_UNEQUAL) - 2)
+    for name in fw.names:
+        lo, hi = fw.ci(name)
+        assert (hi - lo) / 2 == pytest.approx(q * fw.stderr(name), rel=1e-12)
+        assert (hi + lo) / 2 == pytest.approx(fw.value(name), rel=1e-12)
+
+
+def test_band_half_width_uses_student_t():
+    """Small unweighted problem (dof = 2): the band half-width is t_{0.975, 2} sqrt(var)
+    with var from the textbook formulas, not 1.96 sqrt(var)."""
+    from scipy.stats import t as student_t
+
+    x = np.array([5.0, 10.0, 15.0, 20.0])
+    y = np.array([2.61, 2.93, 3.27, 3.50])
+    fw = fit_omega_linear(x, y)
+    n = len(x)
+    d_hat, c_hat = np.polyfit(x, y, 1)
+    r = y - (c_hat + d_hat * x)
+    s2 = float(r @ r) / (n - 2)
+    sxx = float(np.sum((x - x.mean()) ** 2))
+    x0 = np.array([0.0, 12.5, 30.0])
+    var_conf = s2 * (1 / n + (x0 - x.mean()) ** 2 / sxx)
+    var_pred = var_conf + s2
+    q = student_t.ppf(0.975, n - 2)
+    assert q == pytest.approx(4.3027, abs=1e-4)
+    yhat = c_hat + d_hat * x0
+    lo, hi = fw.band(x0, kind="confidence")
+    np.testing.assert_allclose((hi - lo) / 2, q * np.sqrt(var_conf), rtol=1e-9)
+    np.testing.assert_allclose((hi + lo) / 2, yhat, rtol=1e-12)
+    lo, hi = fw.band(x0, kind="prediction")
+    np.testing.assert_allclose((hi - lo) / 2, q * np.sqrt(var_pred), rtol=1e-9)
+    # level is honoured too
+    lo, hi = fw.band(x0, level=0.9, kind="confidence")
+    np.testing.assert_allclose((hi - lo) / 2, student_t.ppf(0.95, n - 2) * np.sqrt(var_conf), rtol=1e-9)
+
+
+def test_prediction_band_with_unequal_standard_errors_by_hand():
+    """Weighted fit: the prediction variance adds s2 times the mean *squared* standard
+    error (sigma_scale is the RMS of the per-point errors, not their mean)."""
+    from scipy.stats import t as student_t
+
+    rng = np.random.default_rng(11)
+    y = C + D * P_UNEQUAL + rng.normal(0.0, SE_UNEQUAL)
+    fw = fit_omega_linear(P_UNEQUAL, y, SE_UNEQUAL)
+    theta, cov, s2, dof = _wls(P_UNEQUAL, y, SE_UNEQUAL)
+    rms = float(np.sqrt(np.mean(SE_UNEQUAL ** 2)))
+    assert fw.sigma_scale == pytest.approx(rms, rel=1e-12)
+    assert abs(rms - SE_UNEQUAL.mean()) > 0.2 * rms  # the two candidates really differ
+    x0 = np.array([6.9, 13.8, 20.7, 25.0])
+    G = np.column_stack([np.ones_like(x0), x0])
+    var_pred = np.einsum("ij,jk,ik->i", G, cov, G) + s2 * np.mean(SE_UNEQUAL ** 2)
+    q = student_t.ppf(0.975, dof)
+    lo, hi = fw.band(x0, kind="prediction")
+    np.testing.assert_allclose((hi - lo) / 2, q * np.sqrt(var_pred), rtol=1e-8)
+    np.testing.assert_allclose((hi + lo) / 2, G @ theta, rtol=1e-10)
+    # unweighted fits have sigma_scale 1
+    assert fit_omega_linear(P_UNEQUAL, y).sigma_scale == 1.0
