@@ -63,6 +63,23 @@ def test_viscous_and_coulomb_hand_values():
     assert friction.coulomb_viscous(0.0, 0.7, 0.65, 0.104) == 0.0
 
 
+def test_coulomb_band_edge_belongs_to_the_outside_branch():
+    # the stiction band is |v| < v_tol: exactly at its edge the outside branch applies, -mu_d - c v_tol
+    # (not the regularised stiction value -mu_s)
+    assert friction.coulomb_viscous(0.01, 0.7, 0.65, 0.104, v_tol=0.01) == pytest.approx(-0.65 - 0.00104)
+    assert friction.coulomb_viscous(-0.01, 0.7, 0.65, 0.104, v_tol=0.01) == pytest.approx(0.65 + 0.00104)
+
+
+def test_table1_params_pick_each_joints_majd_row(robot):
+    """Table I (configs/robot.yaml): the drive joint's Majd values are not the steer joint's."""
+    drive = friction.table1_params(robot, "majd", "drive")
+    steer = friction.table1_params(robot, "majd", "steer")
+    assert drive == pytest.approx({"f_w": 1.78, "f_c": 1.24, "sigma": 8.33, "omega_c": 1.36, "n": 1.60})
+    assert steer == pytest.approx({"f_w": 0.20, "f_c": 0.45, "sigma": 10.0, "omega_c": 0.1, "n": 1.0})
+    assert friction.table1_params(robot, "viscous", "drive") == {"c": 0.104}
+    assert friction.table1_params(robot, "none", "drive") == {}
+
+
 def test_majd_hand_values():
     # Table I drive: f_w 1.78, f_c 1.24, sigma 8.33, omega_c 1.36, n 1.60 at v = 0.5 rad/s:
     # x = 0.5/1.36 = 0.367647; e^-x = 0.692362; e^-1.6x = 0.555306

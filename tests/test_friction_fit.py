@@ -45,10 +45,16 @@ def test_library_defaults_are_the_strict_ones():
     assert inspect.signature(F.sample_posterior).parameters["autocorr_multiple"].default == 50
 
 
-def test_majd_parameters_are_recovered_with_covering_intervals(tmp_path):
+@pytest.fixture(scope="module")
+def majd_fit(tmp_path_factory):
+    """One Majd fit on three simulated steer-stand releases, shared by the tests that read it."""
     segs = synthetic_stand("majd", MAJD_TRUE, seed=11)
-    res, samples = F.fit_segments("steer_stand", "majd", segs, tmp_path / "majd.h5", None, seed=5, walkers=32,
-                                  autocorr_multiple=8, max_steps=600, chunk=50, min_steps=50)
+    return F.fit_segments("steer_stand", "majd", segs, tmp_path_factory.mktemp("majd") / "majd.h5", None, seed=5,
+                          walkers=32, autocorr_multiple=8, max_steps=600, chunk=50, min_steps=50)
+
+
+def test_majd_parameters_are_recovered_with_covering_intervals(majd_fit):
+    res, samples = majd_fit
     for name, truth in MAJD_TRUE.items():
         p = res["parameters"][name]
         # within 3 posterior sd of the median (sd from the 95% interval): five parameters
@@ -71,6 +77,91 @@ def test_majd_parameters_are_recovered_with_covering_intervals(tmp_path):
     assert np.allclose(res["release_angles_rad"], [0.9, -1.0, 0.7], atol=3e-3)
     assert res["integration"]["parameter_shift_sd"] <= 0.2 and res["integration"]["step_error_rad"] < 0.2 * noise["median"]
     json.dumps(res)                                               # JSON-serialisable as it is
+
+
+def test_reported_intervals_are_the_95_percent_ones_of_the_chain_after_burn_in(majd_fit):
+    """Median and ci95 of every sampled quantity are the 2.5/50/97.5 percentiles of the stored
+    HDF5 chain after the reported burn-in, in natural units."""
+    res, _ = majd_fit
+    burn = res["convergence"]["burn_in"]
+    assert burn > 0                                               # a burn-in really is discarded
+    with h5py.File(res["chain"], "r") as fh:
+        chain = fh["mcmc"]["chain"][:]
+    assert chain.shape[0] == res["convergence"]["steps"]
+    flat = chain[burn:].reshape(-1, chain.shape[-1])
+    pri = F.law_priors("steer", "majd", None)
+    cols = {name: pri[name].theta(flat[:, j]) for j, name in enumerate(F.friction.PARAMS["majd"])}
+    cols["noise_rad"] = np.exp(flat[:, len(cols)])
+    for name, col in cols.items():
+        p = res["parameters"][name]
+        lo, med, hi = np.percentile(col, [2.5, 50, 97.5])
+        assert p["median"] == pytest.approx(med, rel=1e-9), name
+        assert p["ci95_low"] == pytest.approx(lo, rel=1e-9), name
+        assert p["ci95_high"] == pytest.approx(hi, rel=1e-9), name
+    for a, j in zip(res["release_angles"], range(6, chain.shape[-1])):
+        lo, med, hi = np.percentile(flat[:, j], [2.5, 50, 97.5])
+        assert (a["ci95_low"], a["median"], a["ci95_high"]) == pytest.approx((lo, med, hi), rel=1e-9)
+
+
+def test_ess_and_bic_parameter_count_of_a_majd_fit(majd_fit):
+    """ESS counts every walker: n_walkers x (steps - burn-in) / tau; the BIC counts the five Majd
+    parameters, the noise level and the three sampled release angles."""
+    res, _ = majd_fit
+    conv = res["convergence"]
+    n_after = conv["steps"] - conv["burn_in"]
+    assert conv["n_walkers"] == 32
+    assert conv["ess_min"] == pytest.approx(conv["n_walkers"] * n_after / conv["max_tau"], rel=1e-9)
+    for name, p in res["parameters"].items():
+        assert p["ess"] == pytest.approx(conv["n_walkers"] * n_after / p["tau_steps"], rel=1e-9), name
+    st = res["fit"]
+    assert st["n_params"] == 5 + 1 + 3
+    assert st["bic"] == pytest.approx(9 * np.log(st["n_obs"]) - 2 * st["loglik_max"], rel=1e-12)
+
+
+def test_sharply_identified_parameters_are_not_flagged_weak(majd_fit):
+    res, _ = majd_fit
+    for name in ("f_w", "f_c", "noise_rad"):
+        p = res["parameters"][name]
+        assert p["identifiability"] < F.WEAK_IDENTIFIABILITY and p["weakly_identified"] is False, (name, p)
+    assert not any(n.startswith(("f_w:", "f_c:")) and "weakly identified" in n for n in res["notes"])
+    for name, p in res["parameters"].items():
+        assert p["weakly_identified"] == (p["identifiability"] > F.WEAK_IDENTIFIABILITY), name
+
+
+def test_a_posterior_that_fills_its_prior_is_flagged_weak():
+    """summarize() on a hand-made chain: c drawn from its prior (posterior = prior) is weakly
+    identified; the noise level, held within a few percent, is not."""
+    segs = F.segments_from_arrays(synthetic_stand("viscous", {"c": 0.3}, seed=3, angles=(0.6, -0.5), duration=1.0))
+    problem = F.FrictionProblem("steer_stand", "viscous", segs, F.law_priors("steer", "viscous"), dt=5e-3)
+    lsq = F.least_squares_fit(problem, seed=0)
+    u0 = np.concatenate([lsq["x"][:problem.n_law], [np.log(lsq["sigma_hat"])], lsq["x"][problem.n_law:]])
+    rng = np.random.default_rng(0)
+    n_steps, n_walkers = 30, 10
+    chain = u0 + 1e-3 * rng.standard_normal((n_steps, n_walkers, problem.ndim))
+    chain[..., 0] = problem.priors[0].sample_u(rng, n_steps * n_walkers).reshape(n_steps, n_walkers)
+    logp = problem.log_prob(chain.reshape(-1, problem.ndim)).reshape(n_steps, n_walkers)
+    post = {"chain": chain, "log_prob": logp, "burn": 5, "tau": np.full(problem.ndim, 2.0), "converged": True,
+            "acceptance": np.full(n_walkers, 0.3), "n_steps": n_steps, "resumed_from": 0, "n_walkers": n_walkers,
+            "autocorr_multiple": 5.0, "max_steps": n_steps, "chain_path": "none.h5", "adapt_schedule": []}
+    res, _ = F.summarize(problem, lsq, post, n_waic_draws=20)
+    c, noise = res["parameters"]["c"], res["parameters"]["noise_rad"]
+    assert c["identifiability"] > 0.9 and c["weakly_identified"] is True
+    assert any(n.startswith("c: weakly identified") for n in res["notes"])
+    assert noise["identifiability"] < 0.1 and noise["weakly_identified"] is False
+
+
+def test_comparison_reports_unconverged_fits_as_such():
+    def result(law, bic, converged):
+        r = {"joint": "steer", "law": law, "recording": "r",
+             "fit": {"n_params": 3, "n_obs": 100, "rmse_rad": 1e-3, "loglik_max": 0.0, "bic": bic, "waic": bic}}
+        if converged is not None:
+            r["convergence"] = {"converged": converged}
+        return r
+
+    table = F.comparison([result("viscous", 10.0, False), result("majd", 5.0, True),
+                          result("coulomb_viscous", 7.0, None)])
+    conv = dict(zip(table["law"], table["converged"]))
+    assert conv == {"viscous": False, "majd": True, "coulomb_viscous": False}
 
 
 def test_chain_resumes_from_hdf5_and_a_seed_reproduces_it(tmp_path):
