@@ -350,3 +350,61 @@ def test_free_response_windows_do_not_overlap_the_next_hold(free_s, seed):
     assert [r.t_release_s for r in rel] == pytest.approx([tr["t_release_s"] for tr in truth], abs=0.05)
     for a, b in zip(rel, rel[1:]):
         assert a.t_release_s < a.t_end_s <= b.held_from_s < b.t_release_s
+
+
+@pytest.mark.parametrize("free_s,offset2,hold_s", [(2.8, 0.08, 0.4), (2.8, 0.12, 0.8), (2.4, 0.08, 0.8)])
+@pytest.mark.parametrize("seed", [0, 1])
+def test_a_hand_hold_near_rest_is_not_taken_for_the_rest_of_the_swings_before_it(free_s, offset2, hold_s, seed):
+    """A lightly damped swing (zeta 0.05) grabbed after four half periods and moved (0.6 s) to a
+    short hold just beside rest: the still stretch after its last turning point is that hold,
+    about which the swings do not swing.  The release is still found, with the rest its
+    decaying swings extrapolate to (it used to be dropped, its hold taken for the rest)."""
+    specs = [dict(offset=0.5, zeta=0.05, omega_n=5.0, free_s=free_s, move_s=0.6),
+             dict(offset=offset2, zeta=0.05, omega_n=5.0, hold_s=hold_s, move_s=0.6),
+             dict(offset=-0.4, zeta=0.05, omega_n=5.0)]
+    t, y, truth = synthetic_release_log(specs, seed=seed)
+    rel = find_releases(t, y, "steer_stand")
+    first = [r for r in rel if abs(r.t_release_s - truth[0]["t_release_s"]) < 0.05]
+    assert len(first) == 1, [r.t_release_s for r in rel]
+    assert first[0].y_rest == pytest.approx(0.0, abs=0.02)
+    later = [r for r in rel if r.t_release_s > first[0].t_release_s]
+    assert later and first[0].t_end_s <= later[0].held_from_s   # ends before the next hold
+    assert any(abs(r.t_release_s - truth[2]["t_release_s"]) < 0.05 for r in rel)
+
+
+@pytest.mark.parametrize("free_s,offset2,hold_s,omega_n", [(2.4, 0.08, 0.4, 5.0), (2.4, 0.08, 0.8, 2.5),
+                                                           (2.8, 0.12, 0.4, 2.5), (2.0, -0.12, 0.8, 5.0)])
+@pytest.mark.parametrize("seed", [0, 1])
+def test_a_release_from_a_hold_on_the_way_to_rest(free_s, offset2, hold_s, omega_n, seed):
+    """A hand catches a swing near its extreme, lowers it towards rest, holds it and lets go:
+    the release swing goes on the way the hand moved, so the hold is no turning point.  Every
+    release is found, with its offset and the rest."""
+    specs = [dict(offset=0.5, zeta=0.05, omega_n=omega_n, free_s=free_s, move_s=0.6),
+             dict(offset=offset2, zeta=0.05, omega_n=omega_n, hold_s=hold_s, move_s=0.6),
+             dict(offset=-0.4, zeta=0.05, omega_n=omega_n)]
+    t, y, truth = synthetic_release_log(specs, seed=seed)
+    rel = find_releases(t, y, "steer_stand")
+    assert [r.t_release_s for r in rel] == pytest.approx([tr["t_release_s"] for tr in truth], abs=0.05)
+    for r, tr in zip(rel, truth):
+        assert r.y_rest == pytest.approx(0.0, abs=0.02)
+        assert r.y_release - r.y_rest == pytest.approx(tr["offset"], abs=0.01)
+    for a, b in zip(rel, rel[1:]):
+        assert a.t_end_s <= b.held_from_s < b.t_release_s
+
+
+@pytest.mark.parametrize("noise,seed", [(0.0004, 0), (0.0004, 1), (0.0005, 0), (0.0005, 2)])
+def test_a_body_at_rest_stepping_by_a_few_mrad_makes_no_hold_inside_a_swing(noise, seed):
+    """Holds inside monotone stretches need a move into them and a swing out of them larger
+    than the noise (4 hysteresis steps): a body stuck off rest whose quantised reading steps
+    down by 4 mrad, rests, and steps again (as the real steer-stand log does after its swings
+    stop) makes none."""
+    from roboball.releases import _holds_inside_swings, prepare_signal, zigzag
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, 4.0, 0.0125)
+    y = np.interp(t, [0, 1.0, 1.1, 1.5, 1.6, 2.5, 2.6, 4.0],
+                  [-0.026, -0.026, -0.030, -0.030, -0.034, -0.034, -0.026, -0.026])
+    y = np.round((y + rng.normal(0, noise, t.size)) / 0.001) * 0.001
+    sig = prepare_signal(t, y)
+    ext = zigzag(sig.ys, sig.hysteresis)
+    out, inner = _holds_inside_swings(sig, ext, 0.25, 0.1)
+    assert inner == set() and list(out) == list(ext)

@@ -13,12 +13,17 @@ same code works for a 1-mrad-quantised pendulum log at 80 Hz and a 100 Hz shell 
    few samples are harmless), smooth with a Savitzky-Golay filter, and estimate the noise
    level sigma (robust MAD of the high-pass residual, floored by the quantisation step).
 2. Find the turning points of the smoothed signal with a hysteresis ("zig-zag") of 5 sigma.
-3. Every turning point is a candidate hold.  It is accepted as a release when
+3. Every turning point is a candidate hold, and so is a hold inside a monotone stretch (a
+   hand that catches a swing, lowers the body towards rest, holds it and lets go makes no
+   turning point there: still for `min_hold_s` between clearly larger moves on both sides).
+   A candidate is accepted as a release when
    - the body was held: slower than 10% of the free swing's peak speed (offset x omega)
      for at least `min_hold_s` AND for clearly longer (2.5x) than the turning point of a free
      swing of the same frequency and amplitude is (this separates a hand hold from a
      turning point of an ongoing oscillation);
-   - it lies further than 20 sigma from the final rest of the motion that follows, and its
+   - it lies further than 20 sigma from the final rest of the motion that follows (the level
+     the body settles at after its last swing, unless its swings do not swing about that
+     level: then a hand's hold, and the rest is extrapolated from their decay), and its
      offset is at least 5% of the largest release in the file (a hand's tremor while it
      holds the body makes tiny "releases" of its own);
    - the body was held in place: within 5% of the offset of where it is let go;
@@ -377,16 +382,59 @@ def _long_enough(held: float, v_thr: float, amplitude: float, omega: float, min_
     return held >= max(min_hold_s, 2.5 * t_free)
 
 
+def _holds_inside_swings(sig: PreparedSignal, ext: np.ndarray, min_hold_s: float,
+                         hold_speed: float) -> tuple[np.ndarray, set]:
+    """`ext` with the holds that lie inside a monotone stretch added as pairs of turning points
+    (the hold's first and middle still sample), and the positions in the result of those
+    holds' first samples: a motion ends there, and no release starts there.  A hand that
+    catches a swing near its extreme, lowers the body towards rest, holds it there and lets go
+    makes no turning point at that hold: the release swing goes on the way the hand moved.
+    A free swing is slow only at its turning points, so a still stretch (slower than
+    `hold_speed` of the stretch's peak speed, and than 4 noise levels of the velocity, for at
+    least `min_hold_s`) with fast motion on both sides, each moving the body by more than 4
+    hysteresis steps, is a hold."""
+    vs, dt = sig.vs, sig.dt
+    n_hold = max(int(math.ceil(min_hold_s / dt)), 2)
+    out: list[int] = []
+    starts: set = set()
+    for a, b in zip(ext[:-1], ext[1:]):
+        out.append(int(a))
+        if b - a < n_hold + 2:
+            continue
+        v = np.abs(vs[a:b + 1])
+        thr = max(hold_speed * float(np.max(v)), 4.0 * sig.sigma_v)
+        fast = np.nonzero(v > thr)[0]
+        if fast.size < 2:
+            continue
+        gaps = np.diff(fast)
+        g = int(np.argmax(gaps))
+        if gaps[g] - 1 >= n_hold:                 # the longest still stretch, fast on both sides
+            first, last_still = int(a + fast[g] + 1), int(a + fast[g + 1] - 1)
+            # A hand's move into the hold and a release swing out of it: both travel clearly
+            # further than the noise (a body at rest jitters through tiny monotone stretches).
+            moves = (abs(sig.ys[first] - sig.ys[a]), abs(sig.ys[b] - sig.ys[last_still]))
+            if min(moves) < 4.0 * sig.hysteresis:
+                continue
+            starts.add(len(out))
+            out += [first, (first + last_still) // 2]   # a release's search for its hold starts inside it
+    if len(ext):
+        out.append(int(ext[-1]))
+    return np.asarray(out, dtype=int), starts
+
+
 def _oscillation_releases(sig: PreparedSignal, kind: str, min_hold_s: float, min_offset_sigma: float,
                           hold_speed: float, min_relative_offset: float) -> list[Release]:
     tu, ys = sig.tu, sig.ys
     h = sig.hysteresis
-    ext = zigzag(ys, h)
+    ext, inner_holds = _holds_inside_swings(sig, zigzag(ys, h), min_hold_s, hold_speed)
     n_ext = len(ext)
     releases: list[Release] = []
     floor_index = 0
     j = 0
     while j < n_ext - 2:
+        if j in inner_holds:
+            j += 1  # the start of a hold inside a monotone stretch: a release starts at its end
+            continue
         k0, k1 = ext[j], ext[j + 1]
         Y = ys[k0]
         # Follow the motion after turning point j: its turning points while the rhythm holds,
@@ -397,6 +445,8 @@ def _oscillation_releases(sig: PreparedSignal, kind: str, min_hold_s: float, min
         last = j + 1
         m = j + 2
         while m < n_ext:
+            if m in inner_holds:
+                break  # a hand stops the body on its way (a hold inside a monotone stretch)
             hp = tu[ext[m]] - tu[ext[m - 1]]
             p2p = abs(ys[ext[m]] - ys[ext[m - 1]])
             p2p_prev = abs(ys[ext[m - 1]] - ys[ext[m - 2]])
@@ -441,22 +491,29 @@ def _oscillation_releases(sig: PreparedSignal, kind: str, min_hold_s: float, min
             if rest is not None and last >= j + 4 and \
                     max(abs(vals[-1] - vals[-2]), abs(vals[-2] - vals[-3])) > 0.9 * abs(vals[2] - vals[1]):
                 rest = None
-            if rest is None:
-                rest = _rest_estimate(vals_a[1:]) if len(vals_a) > 3 else _rest_estimate(vals_a)
+            extrapolated = _rest_estimate(vals_a[1:]) if len(vals_a) > 3 else _rest_estimate(vals_a)
         k_last = ext[last]
         k_next = ext[last + 1] if last + 1 < n_ext else len(ys) - 1
         omega = math.pi / half_period
-        offset = Y - rest
-        dev = vals_a - rest
-        ok = abs(offset) >= max(min_offset_sigma * sig.sigma, 4 * h)
-        ok = ok and dev[1] * offset < 0 and abs(dev[1]) < 1.05 * abs(offset) + h
-        if single:
-            ok = ok and abs(dev[1]) >= 0.1 * abs(offset)  # a real overshoot, not a hand placing it
-        else:
-            ok = ok and dev[2] * offset > 0
-            # The first half swing loses no more than a damped oscillation does later on: a
-            # hand that lowers the body into a hand-held jiggle overshoots far less.
-            ok = ok and abs(dev[1] / offset) >= 0.4 * abs(dev[2] / dev[1])
+        # Rest levels to try, in order.  A settled level found after the last turning point
+        # may be a hand's hold near rest instead (a lightly damped body grabbed mid-swing and
+        # moved to its next hold before the swings decayed); then the swings themselves do not
+        # swing about it (checked below), and the rest extrapolated from their decay is tried.
+        rests = [rest] if single else [r_ for r_ in (rest, extrapolated) if r_ is not None]
+        for rest in rests:
+            offset = Y - rest
+            dev = vals_a - rest
+            ok = abs(offset) >= max(min_offset_sigma * sig.sigma, 4 * h)
+            ok = ok and dev[1] * offset < 0 and abs(dev[1]) < 1.05 * abs(offset) + h
+            if single:
+                ok = ok and abs(dev[1]) >= 0.1 * abs(offset)  # a real overshoot, not a hand placing it
+            else:
+                ok = ok and dev[2] * offset > 0
+                # The first half swing loses no more than a damped oscillation does later on: a
+                # hand that lowers the body into a hand-held jiggle overshoots far less.
+                ok = ok and abs(dev[1] / offset) >= 0.4 * abs(dev[2] / dev[1])
+            if ok:
+                break
         if ok:
             v_thr = _velocity_threshold(sig, offset, omega, hold_speed)
             s, c = _hold_around(sig, k0, k1, floor_index, v_thr)
