@@ -95,3 +95,29 @@ def test_fig14_absolute_panel_says_when_a_model_has_no_error_to_show(tmp_path, m
     src.to_csv(tmp_path / "nan.csv", index=False)
     fig13_14(str(tmp_path / "nan.csv"), *out)
     assert (tmp_path / "t.md").exists() and len(saved) == 4
+
+
+def test_fig14_mean_labels_sit_above_their_runs_and_whiskers(tmp_path, monkeypatch):
+    """Each bar's written mean is anchored above the bar, every run's dot and the posterior
+    whisker, so no label covers a dot (the runs spread well above the mean here)."""
+    import roboball.pipeline.figures as figures
+
+    saved = []
+    monkeypatch.setattr(figures, "save", lambda fig, path: saved.append(fig))
+    src = pd.read_csv(_summary(tmp_path / "s.csv"))
+    first = src.recording.str.endswith("r1")
+    src.loc[first, "pme_percent"] += 6.0          # one run per pressure far above the others
+    src.loc[first, "mape_percent"] *= 3.0
+    src.to_csv(tmp_path / "spread.csv", index=False)
+    out = [str(tmp_path / f) for f in ("fig13.png", "fig14.png", "t.csv", "t.md")]
+    fig13_14(str(tmp_path / "spread.csv"), *out)
+    signed, absolute = saved[1].axes
+    for ax, col in ((signed, "pme_percent"), (absolute, "mape_percent")):
+        labels = [a for a in ax.texts if a.get_text().endswith("%")]
+        assert len(labels) == 4
+        for i, (lab, contact) in enumerate(zip(labels, ("point", "injected", "hydroelastic", "diagnosed"))):
+            runs = src[src.contact == contact]
+            top = runs[col].max()
+            if col == "pme_percent" and runs.pme_draw_high.notna().any():
+                top = max(top, runs.pme_draw_high.mean())
+            assert lab.xy[0] == i and lab.xy[1] >= top - 1e-9, (col, contact, lab.xy, top)

@@ -206,7 +206,11 @@ def fig13_14(summary: str, out13: str, out14: str, out_csv: str, out_md: str, ca
     ax.axhline(0, color="k", lw=0.8)
     span = float(np.nanmax(np.abs(s.pme_percent))) if len(s) else 1.0
     for i, c in enumerate(contacts):      # the mean written on each bar: small bars are invisible at this scale
-        ax.annotate(f"{m[c]:+.2f}%", (i, max(m[c], 0.0)), xytext=(0, 4), textcoords="offset points",
+        r = s[s.contact == c]             # written above the bar, its runs and its whisker, clear of the dots
+        tops = [m[c], 0.0, *r.pme_percent.dropna()]
+        if "pme_draw_high" in r and r.pme_draw_high.notna().any():
+            tops.append(r.pme_draw_high.mean())
+        ax.annotate(f"{m[c]:+.2f}%", (i, max(tops)), xytext=(0, 4), textcoords="offset points",
                     ha="center", va="bottom", fontsize=9,
                     bbox=dict(boxstyle="round,pad=0.15", fc="white", ec="none", alpha=0.8))
     ax.set_ylim(top=1.12 * span)
@@ -222,7 +226,7 @@ def fig13_14(summary: str, out13: str, out14: str, out_csv: str, out_md: str, ca
         r = s.mape_percent[(s.contact == c) & (s.mape_percent > 0)]
         ax_abs.plot(np.full(len(r), i), r, "k.", ms=4)
         if shown[i]:
-            ax_abs.annotate(f"{mabs[c]:.2f}%", (i, mabs[c]), xytext=(0, 4), textcoords="offset points",
+            ax_abs.annotate(f"{mabs[c]:.2f}%", (i, max(mabs[c], *r)), xytext=(0, 4), textcoords="offset points",
                             ha="center", va="bottom", fontsize=9,
                             bbox=dict(boxstyle="round,pad=0.15", fc="white", ec="none", alpha=0.8))
         else:                                  # said, not silently dropped
