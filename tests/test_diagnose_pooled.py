@@ -71,6 +71,45 @@ def test_read_friction_takes_a_fit_or_plain_parameters_and_refuses_the_rest(tmp_
         read_friction(broken)
 
 
+def test_read_friction_gives_exactly_the_five_majd_floats(tmp_path):
+    """Whole numbers are numbers (n = 2 written as an int), booleans and NaN are not; a fit file
+    without a law entry, or with a bare number for a parameter, is read like any other; keys other
+    than Majd's are left out (the parameters end in diagnosis.json's baseline, which
+    D.baseline_friction compares across diagnoses)."""
+    from roboball.identify.results import read_friction
+
+    def write(name, obj):
+        path = tmp_path / name
+        path.write_text(json.dumps(obj))
+        return path
+
+    ints = dict(FITTED["drive"], f_w=2, n=5)
+    got = read_friction(write("ints.json", {**ints, "joint": "drive", "unit": "N m"}))
+    assert got == {"f_w": 2.0, "f_c": 1.196, "sigma": 1.102, "omega_c": 0.206, "n": 5.0}
+    assert all(type(x) is float for x in got.values())
+    no_law = {"parameters": {k: {"median": v, "mean": v + 1.0} for k, v in FITTED["steer"].items()}}
+    assert read_friction(write("no_law.json", no_law)) == FITTED["steer"]
+    bare = {"law": "majd", "parameters": dict({k: {"median": v} for k, v in FITTED["drive"].items()}, n=4.821)}
+    assert read_friction(write("bare.json", bare)) == FITTED["drive"]
+    with pytest.raises(RoboballError, match="flag.json: Majd parameter 'n' is True, not a number"):
+        read_friction(write("flag.json", dict(FITTED["drive"], n=True)))
+    with pytest.raises(RoboballError, match="nan.json: Majd parameter 'sigma' is nan, not a number"):
+        read_friction(write("nan.json", dict(FITTED["drive"], sigma=float("nan"))))
+
+
+def test_read_joint_friction_keeps_each_file_on_its_joint_and_leaves_out_empty_paths(tmp_path):
+    """The pipeline's functions pass "" for a joint without a fit (their default)."""
+    from roboball.identify.results import read_joint_friction
+
+    steer, drive = tmp_path / "steer.json", tmp_path / "drive.json"
+    steer.write_text(json.dumps(FITTED["steer"]))
+    drive.write_text(json.dumps(FITTED["drive"]))
+    assert read_joint_friction(str(steer), str(drive)) == FITTED
+    assert read_joint_friction("", str(drive)) == {"drive": FITTED["drive"]}
+    assert read_joint_friction(steer=str(steer), drive="") == {"steer": FITTED["steer"]}
+    assert read_joint_friction("", "") == {} and read_joint_friction() == {}
+
+
 def test_pooled_ramp_runs_against_fitted_friction_name_the_rolling_damping():
     """The test bed hides a damping of the shell's rolling in its ramp runs (2.39 N m s/rad at
     20.7 kPa, with a rolling resistance of 0.93 N m beside it).  Two runs pooled against the

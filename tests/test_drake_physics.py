@@ -186,3 +186,98 @@ def test_unsampled_output_ports_give_bit_identical_descents(contact):
         _, x = simulate(s, 0.0, 0.6, built=built, return_states=True)
         runs[sampled] = x
     assert np.array_equal(runs[True], runs[False])
+
+
+# ---- the force system at a given state: the laws, mapped onto the plant's velocities -----------
+def _ramp_state(built):
+    """A general ramp state (rolled, pitched and yawed base, both joints moving) and the plant
+    context holding it."""
+    from pydrake.math import RollPitchYaw, RotationMatrix
+
+    lay, plant = built.layout, built.plant
+    q, v = np.zeros(lay.nq), np.zeros(lay.nv)
+    q[lay.base_q:lay.base_q + 4] = RotationMatrix(RollPitchYaw([0.3, -0.2, 0.9])).ToQuaternion().wxyz()
+    q[lay.base_q + 4:lay.base_q + 7] = [0.1, -0.3, 0.4]
+    q[lay.joint_q["steer"]], q[lay.joint_q["drive"]] = 0.1, 0.4
+    v[lay.base_v:lay.base_v + 6] = [0.4, -1.3, 0.25, 0.1, 0.2, -0.05]
+    v[lay.joint_v["steer"]], v[lay.joint_v["drive"]] = 0.7, -2.1
+    ctx = plant.CreateDefaultContext()
+    plant.SetPositionsAndVelocities(ctx, np.concatenate([q, v]))
+    return q, v, plant, ctx
+
+
+def _tau(system, q, v):
+    ctx = system.CreateDefaultContext()
+    system.get_input_port(0).FixValue(ctx, np.concatenate([q, v]))
+    return np.array(system.get_output_port(0).Eval(ctx))
+
+
+def _shell_by_hand(built, plant, ctx, v, k, c, steer, drive):
+    """Eq. 9 mapped with Drake's own kinematics: -K phi - C phi_dot on the base's world-x angular
+    velocity (phi = the base's roll); a couple T = -C omega_d on the pipe about the driveshaft
+    (+y of the base), omega_d the pipe's angular velocity about it, as generalised forces J_w^T T."""
+    from pydrake.math import RollPitchYaw
+    from pydrake.multibody.tree import JacobianWrtVariable
+
+    lay = built.layout
+    tau = np.zeros(lay.nv)
+    R_WB = plant.EvalBodyPoseInWorld(ctx, plant.GetBodyByName("pitch_center")).rotation()
+    if steer:
+        phi = RollPitchYaw(R_WB).roll_angle()
+        assert phi == pytest.approx(0.3)
+        tau[lay.base_v] += -c * v[lay.base_v] - k * phi
+    if drive:
+        pipe = plant.GetBodyByName("pipe_assembly")
+        axle = R_WB.matrix()[:, 1]
+        omega_d = plant.EvalBodySpatialVelocityInWorld(ctx, pipe).rotational() @ axle
+        Jw = plant.CalcJacobianAngularVelocity(ctx, JacobianWrtVariable.kV, pipe.body_frame(),
+                                               plant.world_frame(), plant.world_frame())
+        tau += Jw.T @ (-c * omega_d * axle)
+    return tau
+
+
+def test_force_system_is_the_friction_laws_plus_eq9_at_a_given_state(robot):
+    """The SymbolicVectorSystem the plant is driven by, evaluated at one general ramp state,
+    equals the NumPy friction laws on each joint's own velocity plus the injected shell mapped
+    onto the generalised velocities by Drake's Jacobian of the pipe (terms on the same velocity
+    add up; the drive joint carries both its friction and the shell's reaction)."""
+    from roboball.sim.forces import InjectedShell, JointFriction, build_force_system
+
+    built = build(SimSpec(kind="ramp"))
+    lay = built.layout
+    q, v, plant, ctx = _ramp_state(built)
+    steer_p = {"mu_s": 0.7, "mu_d": 0.65, "c": 0.104, "v_tol": 0.01}
+    drive_p = friction.table1_params(robot, "majd", "drive")
+    k, c = 3.1, 0.83
+    system = build_force_system(lay, [JointFriction("steer", "coulomb_viscous", steer_p),
+                                      JointFriction("drive", "majd", drive_p), InjectedShell(k, c)])
+    expected = _shell_by_hand(built, plant, ctx, v, k, c, steer=True, drive=True)
+    expected[lay.joint_v["steer"]] += friction.coulomb_viscous(0.7, **steer_p)      # -0.65 - 0.0728
+    expected[lay.joint_v["drive"]] += friction.majd(-2.1, **drive_p)                # > 0: opposes v < 0
+    assert expected[lay.joint_v["drive"]] != 0.0 and np.count_nonzero(expected[lay.base_v:lay.base_v + 3]) == 3
+    np.testing.assert_allclose(_tau(system, q, v), expected, rtol=1e-12, atol=1e-12)
+
+
+@pytest.mark.parametrize("steer,drive", [(True, False), (False, True)])
+def test_injected_shell_flags_drop_exactly_their_direction(steer, drive):
+    """ShellParams.injected_steer / injected_drive (section IV): with one direction off, the
+    force system holds the other direction's torque only."""
+    from roboball.sim.forces import InjectedShell, build_force_system
+
+    built = build(SimSpec(kind="ramp"))
+    q, v, plant, ctx = _ramp_state(built)
+    k, c = 3.1, 0.83
+    system = build_force_system(built.layout, [InjectedShell(k, c, steer=steer, drive=drive)])
+    expected = _shell_by_hand(built, plant, ctx, v, k, c, steer=steer, drive=drive)
+    np.testing.assert_allclose(_tau(system, q, v), expected, rtol=1e-12, atol=1e-12)
+    assert bool(expected[built.layout.joint_v["drive"]] != 0.0) == drive
+
+
+def test_kin_base_rotation_is_drakes_rotation_of_the_base():
+    """Kin.base_rotation (used by the shell and effect terms) is R_WB of the base, every entry."""
+    from roboball.sim.forces import Kin
+
+    built = build(SimSpec(kind="ramp"))
+    q, v, plant, ctx = _ramp_state(built)
+    R_WB = plant.EvalBodyPoseInWorld(ctx, plant.GetBodyByName("pitch_center")).rotation().matrix()
+    np.testing.assert_allclose(np.array(Kin(built.layout, q, v, None).base_rotation(), float), R_WB, atol=1e-12)
