@@ -97,6 +97,19 @@ def test_read_friction_gives_exactly_the_five_majd_floats(tmp_path):
         read_friction(write("nan.json", dict(FITTED["drive"], sigma=float("nan"))))
 
 
+def test_read_friction_takes_the_parameters_a_fit_held_fixed(tmp_path):
+    """A Majd fit with n held fixed (friction_fit's `fixed`, as the friction figures read it) is
+    the law with that n; a sampled value wins over a fixed one of the same name."""
+    from roboball.identify.results import read_friction
+
+    sampled = {k: {"median": v} for k, v in FITTED["drive"].items() if k != "n"}
+    path = tmp_path / "fixed_n.json"
+    path.write_text(json.dumps({"law": "majd", "parameters": sampled, "fixed": {"n": 1.0}}))
+    assert read_friction(path) == dict(FITTED["drive"], n=1.0)
+    path.write_text(json.dumps({"law": "majd", "parameters": {**sampled, "n": {"median": 2.5}}, "fixed": {"n": 1.0}}))
+    assert read_friction(path)["n"] == 2.5
+
+
 def test_read_joint_friction_keeps_each_file_on_its_joint_and_leaves_out_empty_paths(tmp_path):
     """The pipeline's functions pass "" for a joint without a fit (their default)."""
     from roboball.identify.results import read_joint_friction

@@ -14,8 +14,9 @@ from ..physics import friction as friction_laws
 
 
 def read_friction(path) -> dict:
-    """Majd parameters from a friction fit (roboball's fit JSON: posterior medians) or a plain
-    JSON object {f_w, f_c, sigma, omega_c, n}; a one-line error names the file and what is wrong."""
+    """Majd parameters from a friction fit (roboball's fit JSON: posterior medians, and the values
+    of any parameters the fit held fixed) or a plain JSON object {f_w, f_c, sigma, omega_c, n};
+    a one-line error names the file and what is wrong."""
     path = Path(path)
     try:
         with open(path, encoding="utf-8") as fh:
@@ -27,7 +28,9 @@ def read_friction(path) -> dict:
     if isinstance(d, dict) and isinstance(d.get("parameters"), dict):
         if d.get("law") not in (None, "majd"):
             raise RoboballError(f"{path}: a fit of the {d.get('law')} law, not Majd's")
-        d = {k: (v.get("median") if isinstance(v, dict) else v) for k, v in d["parameters"].items()}
+        fixed = d.get("fixed") if isinstance(d.get("fixed"), dict) else {}
+        # parameters held fixed in the fit (friction_fit's `fixed`) are part of the law as fitted
+        d = {**fixed, **{k: (v.get("median") if isinstance(v, dict) else v) for k, v in d["parameters"].items()}}
     if not isinstance(d, dict):
         raise RoboballError(f"{path}: expected a JSON object of Majd parameters")
     out = {}
