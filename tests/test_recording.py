@@ -333,3 +333,114 @@ def test_property_reader_never_crashes(tmp_path, header, rows, newline, bom):
     assert np.all(np.isfinite(rec.data.to_numpy()))
     assert np.all(np.diff(rec.time) >= 0) and np.ptp(rec.time) > 0
     assert np.all(np.abs(rec.signal("steer_angle_rad")) <= 2 * math.pi)
+
+
+# --------------------------------------------------------------------------------------
+# exact one-line messages, boundaries and normalise details (small synthetic files)
+# --------------------------------------------------------------------------------------
+STAND = '{"kind": "steer_stand", "pressure_kpa": null}'
+
+
+def _csv(tmp_path: Path, name: str, text: str, sidecar: str | None = STAND) -> Path:
+    path = tmp_path / name
+    path.write_bytes(text.encode("utf-8"))
+    if sidecar is not None:
+        sidecar_path(path).write_text(sidecar)
+    return path
+
+
+def _message(path: Path, **flags) -> str:
+    with pytest.raises(RecordingError) as info:
+        read_recording(path, **flags)
+    return str(info.value)
+
+
+def test_crlf_line_numbers_count_each_line_once(tmp_path):
+    path = _csv(tmp_path, "crlf.csv", "time_s,steer_angle_rad\r\n0,0.1\r\n0.01,x\r\n0.02,0.1\r\n")
+    assert _message(path) == (f"{path}: line 3, column steer_angle_rad: 'x' is not a number; "
+                              "fix the cell or delete the row")
+
+
+def test_duplicate_column_names_both_column_numbers(tmp_path):
+    path = _csv(tmp_path, "dup.csv", "time_s,steer_angle_rad,pipe_angle_rad,steer_angle_rad\n0,0.1,0,0\n0.01,0.1,0,0\n")
+    assert _message(path) == (f"{path}: line 1 (header): column steer_angle_rad appears twice "
+                              "(columns 2 and 4); keep one of them")
+
+
+def test_degree_column_named_with_its_1_based_column_number(tmp_path):
+    path = _csv(tmp_path, "deg.csv", "time_s,pipe_angle_rad,steer_angle_deg\n0,0.1,5\n0.01,0.1,5\n")
+    assert _message(path) == (f"{path}: line 1 (header), column 3: column 'steer_angle_deg' is in degrees; "
+                              "units must be SI; convert degrees to radians and name it steer_angle_rad")
+
+
+def test_time_backwards_names_both_file_lines_across_a_blank_line(tmp_path):
+    path = _csv(tmp_path, "back.csv", "time_s,steer_angle_rad\n0,0.1\n\n0.02,0.1\n0.01,0.1\n")
+    assert _message(path) == (f"{path}: line 5, column time_s: time goes backwards (0.01 s after 0.02 s on line 4); "
+                              "sort the rows by time or remove the out-of-order sample")
+
+
+def test_single_data_row_is_refused_as_such(tmp_path):
+    path = _csv(tmp_path, "one.csv", "time_s,steer_angle_rad\n0,0.1\n")
+    assert _message(path) == f"{path}: file: only one data row; a recording needs at least two samples"
+
+
+def test_angle_just_above_two_pi_is_degrees(tmp_path):
+    # 7 (degrees, by mistake) is above 2*pi = 6.283 rad and must be refused; 6.28 is fine
+    path = _csv(tmp_path, "seven.csv", "time_s,steer_angle_rad\n0,0.1\n0.01,7.0\n")
+    assert _message(path) == (f"{path}: line 3, column steer_angle_rad: |value| 7 exceeds 2*pi: looks like degrees, "
+                              "not radians; convert to radians (multiply by pi/180)")
+    ok = _csv(tmp_path, "ok.csv", "time_s,steer_angle_rad\n0,0.1\n0.01,6.28\n")
+    assert read_recording(ok).signal("steer_angle_rad")[-1] == 6.28
+
+
+def test_write_recording_names_the_csv_line_the_row_would_have(tmp_path):
+    df = pd.DataFrame({"time_s": [0.0, 0.01, 0.02], "steer_angle_rad": [0.1, 0.1, 7.0]})
+    path = tmp_path / "mem.csv"
+    with pytest.raises(RecordingError) as info:
+        write_recording(path, df, {"kind": "steer_stand"})
+    # header = line 1, so the third data row is line 4
+    assert str(info.value) == (f"{path}: line 4, column steer_angle_rad: |value| 7 exceeds 2*pi: looks like degrees, "
+                               "not radians; convert to radians (multiply by pi/180)")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_pressure_bound_is_inclusive_at_500_kpa(tmp_path):
+    ok = _csv(tmp_path, "p500.csv", "time_s,pipe_angle_rad\n0,0.1\n0.01,0.1\n", '{"kind": "shell_rock", "pressure_kpa": 500}')
+    assert read_recording(ok).pressure_kpa == 500.0
+    bad = _csv(tmp_path, "p5005.csv", "time_s,pipe_angle_rad\n0,0.1\n0.01,0.1\n", '{"kind": "shell_rock", "pressure_kpa": 500.5}')
+    assert _message(bad) == (f"{bad}: field pressure_kpa (sidecar p5005.json): 500.5 kPa is outside (0, 500] kPa; "
+                             "give the shell gauge pressure in kPa (1 psi = 6.895 kPa)")
+
+
+def test_ramp_exit_before_first_sample_refused(tmp_path):
+    path = _csv(tmp_path, "exit.csv", "time_s,drive_rate_rad_s\n1.0,0.1\n1.01,0.1\n",
+                '{"kind": "ramp", "pressure_kpa": 13.8, "ramp_exit_s": 0.5}')
+    assert _message(path) == (f"{path}: field ramp_exit_s (sidecar exit.json): 0.5 s is before the first sample (1 s); "
+                              "give the time the robot left the ramp, in the recording's time base")
+    assert _message(path, ramp_exit_s=0.25).startswith(f"{path}: field ramp_exit_s (flag --ramp-exit-s): 0.25 s is before")
+    assert read_recording(path, ramp_exit_s=1.0).ramp_exit_s == 1.0
+
+
+def test_ramp_angle_from_sidecar_says_sidecar(tmp_path):
+    path = _csv(tmp_path, "ang.csv", "time_s,drive_rate_rad_s\n0,0.1\n0.01,0.1\n",
+                '{"kind": "ramp", "pressure_kpa": 13.8, "ramp_angle_deg": 12}')
+    rec = read_recording(path)
+    assert rec.ramp_angle_deg == 12.0 and rec.meta["ramp_angle_deg_source"] == "sidecar"
+
+
+def test_normalise_keeps_the_first_sample_of_a_duplicate_stamp(tmp_path):
+    path = _csv(tmp_path, "dups.csv", "time_s,steer_angle_rad\n0,0.1\n0.01,0.2\n0.01,0.3\n0.02,0.4\n")
+    norm = normalise(read_recording(path))
+    np.testing.assert_array_equal(norm.time, [0.0, 0.01, 0.02])
+    np.testing.assert_array_equal(norm.signal("steer_angle_rad"), [0.1, 0.2, 0.4])
+    assert norm.meta["n_duplicates_dropped"] == 1
+
+
+def test_normalise_gap_threshold_is_three_median_steps(tmp_path):
+    # steps 10, 10, 10, 25, 10, 10, 35 ms: median 10 ms; only the 35 ms step exceeds 3x
+    t = "0 0.01 0.02 0.03 0.055 0.065 0.075 0.11".split()
+    path = _csv(tmp_path, "gaps.csv", "time_s,steer_angle_rad\n" + "".join(f"{x},0.1\n" for x in t))
+    norm = normalise(read_recording(path))
+    assert norm.meta["gaps"] == [(0.075, 0.11)]
+    assert norm.meta["median_dt_s"] == pytest.approx(0.01, abs=1e-12)
+    assert norm.meta["n_duplicates_dropped"] == 0
