@@ -124,3 +124,96 @@ def test_import_native_refuses_recording(tmp_path):
         import_native(path)
     rec = read_any(path, kind="steer_stand")
     assert rec.kind == "steer_stand"
+
+
+# --------------------------------------------------------------------------------------
+# small synthetic native logs: exact values and exact one-line messages
+# --------------------------------------------------------------------------------------
+SHELL_HEADER = "timestamp,ball_roll.position,ball_roll.velocity\n"
+
+
+def _native(tmp_path: Path, text: str, name: str = "native.csv") -> Path:
+    path = tmp_path / name
+    path.write_bytes(text.encode("utf-8"))
+    return path
+
+
+def _message(path: Path) -> str:
+    with pytest.raises(RecordingError) as info:
+        read_any(path)
+    return str(info.value)
+
+
+def test_epoch_nanoseconds_are_converted_exactly(tmp_path):
+    # ns since the epoch exceed 2**53: float64 would round the steps to multiples of 256 ns
+    t0 = 1_765_208_426_656_000_000
+    path = _native(tmp_path, SHELL_HEADER + f"{t0},-0.4,0.0\n{t0 + 10_000_001},-0.399,0.1\n{t0 + 20_000_003},-0.397,0.2\n")
+    rec = read_any(path)
+    assert rec.meta["time_offset_ns"] == t0
+    np.testing.assert_allclose(rec.time, [0.0, 0.010000001, 0.020000003], rtol=0, atol=1e-15)
+    np.testing.assert_array_equal(rec.signal("pipe_angle_rad"), [-0.4, -0.399, -0.397])
+    np.testing.assert_array_equal(rec.signal("pipe_rate_rad_s"), [0.0, 0.1, 0.2])
+    # no sidecar, no flag: the pressure is explicitly unknown
+    assert rec.pressure_kpa is None and rec.meta["pressure_source"] == "unknown"
+    assert rec.meta["source_format"] == "shell_log" and rec.meta["source_file"] == "native.csv"
+
+
+def test_shell_log_columns_found_by_name_in_any_order(tmp_path):
+    path = _native(tmp_path, "ball_roll.velocity,timestamp,ball_roll.position\n0.5,0,0.1\n0.6,10000000,0.2\n")
+    assert detect_format(path) == "shell_log"
+    rec = read_any(path)
+    assert list(rec.data.columns) == ["time_s", "pipe_angle_rad", "pipe_rate_rad_s"]
+    np.testing.assert_allclose(rec.time, [0.0, 0.01], rtol=0, atol=1e-15)
+    np.testing.assert_array_equal(rec.signal("pipe_angle_rad"), [0.1, 0.2])
+    np.testing.assert_array_equal(rec.signal("pipe_rate_rad_s"), [0.5, 0.6])
+
+
+def test_steer_log_in_nanoseconds_is_named_by_its_native_column(tmp_path):
+    # nanoseconds since boot (5.5 s): far above 1e9 "seconds"
+    path = _native(tmp_path, "steer_timestamp,pend_angle\n5500000000,-0.04\n5512000000,-0.041\n5530000000,-0.05\n")
+    assert _message(path) == (f"{path}: column steer_timestamp: values up to 5.53e+09 are not seconds; "
+                              "the steer log's timestamps must be in seconds")
+
+
+def test_native_errors_name_file_lines_across_blank_lines(tmp_path):
+    frac = _native(tmp_path, SHELL_HEADER + "0,-0.4,0\n\n10000000.5,-0.4,0\n", "frac.csv")
+    assert _message(frac) == (f"{frac}: line 4, column timestamp: 10000000.5 is not an integer number of nanoseconds; "
+                              "the shell log's timestamp column must be integer nanoseconds")
+    back = _native(tmp_path, "steer_timestamp,pend_angle\n0,0.1\n\n0.02,0.1\n0.01,0.1\n", "back.csv")
+    assert _message(back) == (f"{back}: line 5, column time_s: time goes backwards (0.01 s after 0.02 s on line 4); "
+                              "sort the rows by time or remove the out-of-order sample")
+
+
+def test_kind_flag_must_match_the_native_log(tmp_path):
+    shell = _native(tmp_path, SHELL_HEADER + "0,-0.4,0\n10000000,-0.4,0\n", "shell.csv")
+    with pytest.raises(RecordingError) as info:
+        read_any(shell, kind="ramp")
+    assert str(info.value) == (f"{shell}: field kind: a shell log can only be kind shell_rock, not 'ramp'; "
+                               "drop --kind or use the matching log")
+    steer = _native(tmp_path, "steer_timestamp,pend_angle\n0,-0.04\n0.01,-0.04\n", "steer.csv")
+    with pytest.raises(RecordingError) as info:
+        import_native(steer, kind="shell_rock")
+    assert str(info.value) == (f"{steer}: field kind: a steer log can only be kind steer_stand, not 'shell_rock'; "
+                               "drop --kind or use the matching log")
+    assert read_any(steer, kind="steer_stand").kind == "steer_stand"
+
+
+def test_epoch_nanoseconds_under_a_spaced_header_blank_lines_and_crlf(tmp_path):
+    """Epoch nanoseconds are re-read from the very rows parsed (not by a second CSV reader that
+    knows nothing of the first one's header stripping, blank lines or line endings)."""
+    t0 = 1_765_208_426_656_000_000
+    text = (" timestamp , ball_roll.position,ball_roll.velocity\r\n"
+            f"{t0},-0.4,0.0\r\n\r\n{t0 + 10_000_001},-0.399,0.1\r\n{t0 + 20_000_003},-0.397,0.2\r\n")
+    rec = read_any(_native(tmp_path, text))
+    assert rec.meta["time_offset_ns"] == t0
+    np.testing.assert_allclose(rec.time, [0.0, 0.010000001, 0.020000003], rtol=0, atol=1e-15)
+    np.testing.assert_array_equal(rec.signal("pipe_angle_rad"), [-0.4, -0.399, -0.397])
+
+
+def test_epoch_nanoseconds_written_as_floats_are_a_one_line_error(tmp_path):
+    """1.765e18 has lost the nanoseconds a float cannot hold: refused, naming line and column."""
+    path = _native(tmp_path, SHELL_HEADER + "1765208426656000000,-0.4,0.0\n1.76520842667e18,-0.399,0.1\n"
+                   "1765208426676000000,-0.397,0.2\n")
+    msg = _message(path)
+    assert "line 3, column timestamp" in msg and "'1.76520842667e18' is not an integer number of nanoseconds" in msg
+    assert "\n" not in msg

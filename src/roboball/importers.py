@@ -79,6 +79,27 @@ def detect_format(path: str | Path) -> str:
     )
 
 
+def _integer_cells(path: Path, text: str, line_numbers, j: int) -> np.ndarray:
+    """Column `j` of the given (1-based) file lines as exact int64 (parse_numeric_csv reads
+    floats, which hold integers only up to 2**53); a one-line error for a cell that is not an
+    integer within int64."""
+    lines = _split_lines(text)
+    out = np.empty(len(line_numbers), dtype=np.int64)
+    for r, n in enumerate(line_numbers):
+        line = lines[int(n) - 1]
+        cell = (next(csv.reader([line])) if '"' in line else line.split(","))[j].strip()
+        try:
+            v = int(cell)
+        except ValueError:
+            raise _err(path, f"line {int(n)}, column timestamp", f"{cell[:40]!r} is not an integer number of "
+                       "nanoseconds", "the shell log's timestamp column must be integer nanoseconds") from None
+        if not -2 ** 63 <= v < 2 ** 63:
+            raise _err(path, f"line {int(n)}, column timestamp", f"{cell[:40]} is beyond 64-bit integers",
+                       "the shell log's timestamp column must be integer nanoseconds")
+        out[r] = v
+    return out
+
+
 def import_native(
     path: str | Path,
     kind: str | None = None,
@@ -138,11 +159,12 @@ def import_native(
                 f"{raw[r]:.9g} is not an integer number of nanoseconds",
                 "the shell log's timestamp column must be integer nanoseconds",
             )
-        # Integer nanoseconds up to ~9e15 are exact in float64; beyond that re-read as int.
+        # Integer nanoseconds up to ~9e15 are exact in float64; beyond that (epoch nanoseconds,
+        # ~1.7e18) the cells of the very rows parsed above are read again as Python integers.
         if np.all(np.isfinite(raw)) and np.max(np.abs(raw)) < 2 ** 53:
             t_ns = raw.astype(np.int64)
         else:
-            t_ns = np.asarray(pd.read_csv(path, usecols=["timestamp"], dtype={"timestamp": "int64"})["timestamp"])
+            t_ns = _integer_cells(path, text, line_numbers, col["timestamp"])
         steps = np.diff(t_ns)
         pos = steps[steps > 0]
         if pos.size and np.median(pos) < 1e3:
