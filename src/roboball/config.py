@@ -124,7 +124,11 @@ class RobotFacts:
     # ---- eq. 4-5: locked-steer shell --------------------------------------------
     @cached_property
     def shell_terms(self) -> dict:
-        """M_eq, K_eq, omega_n of eq. 4-5 (paper's definitions; r_i = CoM depth below centre)."""
+        """M_eq, K_eq, omega_n of eq. 4-5 (r_i = CoM depth below centre).  One departure from the
+        paper's eq. 4: the pendulum's parallel-axis term uses its distance from the steer axis,
+        sideways CoM offset included, not its depth alone; M_eq is 2.5e-4 kg m^2 (0.006%) larger
+        than with the depth alone (4.19157 against 4.19132; robot-facts.md: 4.191), omega_n 2.28547
+        against 2.28554 rad/s (3e-5 relative)."""
         pc, p, s = self.links["pitch_center"], self.links["pendulum"], self.links["pipe_assembly"]
         r_pc = -pc.com_m[2]
         r_p = -p.com_m[2]
