@@ -1,0 +1,163 @@
+"""The reduced models' equations of motion and the diagnosis.json / report.md writer, checked
+against hand-computed values and the contract (shared/specs/diagnosis.md) without running a
+diagnosis: fast, and each assertion pins one term or one field."""
+import math
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from roboball.diagnose.models import StandModel, hermite, model_for
+from roboball.diagnose.report import RAMP_EXPLAINS, _param_cells, baseline_fitted, diagnosis_json
+from roboball.physics import effects as fx
+
+
+# ---- reduced models -------------------------------------------------------------------------
+@pytest.mark.parametrize("kind, dof, signal", [("steer_stand", "steer", "steer_angle_rad"),
+                                               ("drive_stand", "drive", "drive_angle_rad")])
+def test_stand_models_name_their_own_joint(kind, dof, signal):
+    model = model_for(kind)
+    assert (model.dof, model.signal) == (dof, signal)
+
+
+def test_undamped_stand_pendulum_conserves_its_energy():
+    # I qdd = -k_g sin q  =>  E = I v^2 / 2 + k_g (1 - cos q) is constant (q from rest)
+    model = StandModel("steer_stand")
+    q0 = model.rest + 1.0
+    Y, V = model.simulate(np.array([q0]), {"viscous_c": np.array([0.0])}, 2000)
+    q = Y[:, 0] - model.rest
+    E = 0.5 * model.inertia * V[:, 0] ** 2 + model.k_g * (1.0 - np.cos(q))
+    E0 = model.k_g * (1.0 - math.cos(1.0))
+    assert np.max(np.abs(E - E0)) < 1e-3 * E0
+
+
+def test_damped_stand_pendulum_loses_energy_at_the_viscous_rate():
+    # dE/dt = -c v^2: the energy lost up to time t is c * integral(v^2)
+    model = StandModel("drive_stand")
+    c = 0.05
+    dt = 1e-3
+    Y, V = model.simulate(np.array([model.rest + 0.5]), {"viscous_c": np.array([c])}, 3000, dt)
+    q, v = Y[:, 0] - model.rest, V[:, 0]
+    E = 0.5 * model.inertia * v ** 2 + model.k_g * (1.0 - np.cos(q))
+    lost = c * np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] ** 2 + v[:-1] ** 2) * dt)])
+    assert E[-1] < 0.9 * E[0]
+    np.testing.assert_allclose(E + lost, E[0], rtol=2e-3)
+
+
+def test_shell_rolling_without_slipping_conserves_lagrangian_energy():
+    # M(q) qdd + m R d sin(q) qd^2 + k_g sin q = 0 with M = I_c + m (R^2 + d^2 - 2 R d cos q)
+    # conserves E = M(q) qd^2 / 2 + k_g (1 - cos q); a wrong sign of the qd^2 term does not.
+    model = model_for("shell_rock")
+    m, R, d = model.mass, model.radius, model.d
+    Y, V = model.simulate(np.array([model.rest + 1.2]), {}, 2000)
+    q, v = Y[:, 0] - model.rest, V[:, 0]
+    M = model.i_com + m * (R * R + d * d - 2 * R * d * np.cos(q))
+    E = 0.5 * M * v ** 2 + model.k_g * (1.0 - np.cos(q))
+    E0 = model.k_g * (1.0 - math.cos(1.2))
+    assert np.max(np.abs(E - E0)) < 1e-3 * E0
+
+
+def test_backlash_uses_each_of_its_two_parameters():
+    # outside the free play b the stiffness k_b engages: -k_b (q - b) for q > b, 0 inside it
+    model = StandModel("steer_stand")
+    P = {"backlash.k_b": np.array([2.0, 2.0]), "backlash.b": np.array([0.1, 0.1])}
+    tau = model.effect_torque(np.array([0.3, 0.05]), np.array([0.0, 0.0]), P, ["backlash"])
+    np.testing.assert_allclose(tau, [-0.4, 0.0], atol=1e-12)
+
+
+def test_com_offset_uses_the_experiments_gravity_term_and_only_active_rows():
+    model = StandModel("steer_stand")
+    delta = 0.02
+    P = {"com_offset.delta": np.array([0.0, delta, 0.0])}
+    q = np.array([0.3, 0.3, 0.3])
+    tau = model.effect_torque(q, np.zeros(3), P, ["com_offset"])
+    expected = -model.k_g * (math.sin(0.3 - delta) - math.sin(0.3))
+    np.testing.assert_allclose(tau, [0.0, expected, 0.0], atol=1e-12)
+
+
+def test_hermite_interpolation_is_exact_for_a_cubic():
+    dt = 0.01
+    t = np.arange(51) * dt
+    Y = (t ** 3 - 2 * t)[:, None]
+    Yd = (3 * t ** 2 - 2)[:, None]
+    tau = np.array([[0.0123, 0.2057, 0.4444]])
+    got = hermite(Y, Yd, dt, tau, np.array([0]))
+    np.testing.assert_allclose(got, tau ** 3 - 2 * tau, atol=1e-12)
+
+
+# ---- diagnosis.json / report.md -------------------------------------------------------------
+def _diagnosis(kind="steer_stand", unit="rad", chosen=("coulomb_friction", "viscous_damping"), verdict="augmented"):
+    """A finished diagnosis as the writer sees it (two effects kept in two rounds)."""
+    windows = [SimpleNamespace(index=0, t0=1.5), SimpleNamespace(index=1, t0=20.0)]
+    base_values = {"viscous_c": 0.2, "q0@0": 0.7, "ts@0": 0.01, "q0@1": -0.6, "ts@1": -0.02}
+    final_values = {"viscous_c": 0.05, "q0@0": 0.71, "ts@0": 0.015, "q0@1": -0.61, "ts@1": -0.01,
+                    "coulomb_friction.tau_c": 0.48, "viscous_damping.c": 0.03}
+    steps = [[{"effect": "coulomb_friction", "delta_bic": -812.0, "kept": True},
+              {"effect": "stiction", "delta_bic": -300.0, "kept": False}],
+             [{"effect": "viscous_damping", "delta_bic": -40.0, "kept": True}]]
+    return SimpleNamespace(
+        prep=SimpleNamespace(kind=kind, unit=unit, windows=windows),
+        model=SimpleNamespace(dof="steer", description="rigid pendulum",
+                              base_params=(SimpleNamespace(name="viscous_c"),)),
+        baseline=SimpleNamespace(values=base_values, rmse=0.084, cv_rmse=0.091),
+        final=SimpleNamespace(values=final_values, rmse=0.012, cv_rmse=0.014, delta_bic=-852.0),
+        chosen=list(chosen), steps=steps, verdict=verdict,
+        ci95={"coulomb_friction.tau_c": (0.45, 0.51), "viscous_damping.c": (0.02, 0.04)})
+
+
+def _located():
+    return SimpleNamespace(windows=[{"start_s": 12.1, "end_s": 14.9, "signal": "steer_angle_rad",
+                                     "regime": "low_speed", "share_of_residual": 0.623456}])
+
+
+def test_fit_gives_fitted_and_heldout_rms_before_and_after_in_the_signals_units():
+    js = diagnosis_json(_diagnosis(kind="ramp", unit="rad/s"), _located())
+    assert js["fit"] == {"rmse_before": 0.084, "rmse_after": 0.012, "rmse_heldout_before": 0.091,
+                         "rmse_heldout_after": 0.014, "units": "rad/s"}
+
+
+def test_each_effect_has_the_delta_bic_of_the_round_that_kept_it_and_its_95_interval():
+    js = diagnosis_json(_diagnosis(), _located())
+    mp = {m["effect"]: m for m in js["missing_physics"]}
+    assert [m["effect"] for m in js["missing_physics"]] == ["coulomb_friction", "viscous_damping"]
+    assert mp["coulomb_friction"]["delta_bic"] == -812.0 and mp["viscous_damping"]["delta_bic"] == -40.0
+    assert mp["coulomb_friction"]["parameters"] == {"tau_c": 0.48}
+    assert mp["coulomb_friction"]["ci95"] == {"tau_c": [0.45, 0.51]}
+    assert mp["viscous_damping"]["ci95"] == {"c": [0.02, 0.04]}
+    assert all(m["dof"] == "steer" for m in js["missing_physics"])
+    assert js["located"][0]["share_of_residual"] == 0.6235
+
+
+def test_signatures_read_as_the_ramps_on_the_ramp_and_as_the_librarys_elsewhere():
+    stand = diagnosis_json(_diagnosis(), _located())["missing_physics"]
+    ramp = diagnosis_json(_diagnosis(kind="ramp", unit="rad/s"), _located())["missing_physics"]
+    assert stand[1]["explains"] == fx.LIBRARY["viscous_damping"].explains
+    assert ramp[1]["explains"] == RAMP_EXPLAINS["viscous_damping"]
+    assert ramp[0]["explains"] == fx.LIBRARY["coulomb_friction"].explains     # no ramp reading of its own
+
+
+def test_verdict_is_passed_through_even_when_effects_were_kept():
+    # "unexplained" with effects: they help, but a structured residual remains
+    js = diagnosis_json(_diagnosis(verdict="unexplained"), _located())
+    assert js["verdict"] == "unexplained" and len(js["missing_physics"]) == 2
+    js = diagnosis_json(_diagnosis(chosen=(), verdict="adequate"), _located())
+    assert js["verdict"] == "adequate" and js["missing_physics"] == []
+    assert "refitted_with_effects" not in js["baseline"]
+
+
+def test_release_states_are_numbered_from_one_and_include_the_fitted_time_shift():
+    d = _diagnosis()
+    assert baseline_fitted(d) == {"viscous_c": 0.2, "release_1_rad": 0.7, "release_1_s": 1.51,
+                                  "release_2_rad": -0.6, "release_2_s": 19.98}
+    js = diagnosis_json(d, _located())
+    assert js["baseline"]["fitted"] == baseline_fitted(d)
+    assert js["baseline"]["refitted_with_effects"] == {"viscous_c": 0.05, "release_1_rad": 0.71,
+                                                       "release_1_s": 1.515, "release_2_rad": -0.61,
+                                                       "release_2_s": 19.99}
+    # a rate signal (the ramp) has no release angle
+    assert set(baseline_fitted(_diagnosis(kind="ramp", unit="rad/s"))) == {"viscous_c", "release_1_s", "release_2_s"}
+
+
+def test_report_parameter_cells_give_value_unit_and_both_interval_bounds():
+    assert _param_cells("coulomb_friction", "tau_c", 0.48, [0.45, 0.51]) == ("tau_c = 0.48 N m", "[0.45, 0.51]")
+    assert _param_cells("backlash", "b", 0.0123, [0.01, None]) == ("b = 0.0123 rad", "[0.01, -]")
