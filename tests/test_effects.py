@@ -60,6 +60,9 @@ def test_an_effect_at_a_reducing_parameter_of_zero_is_exactly_its_simpler_entry(
     ("backlash", 0.5, 1.0, -6.0 * 0.3),
     ("backlash", -0.5, 1.0, 6.0 * 0.3),
     ("rolling_resistance", 0.0, 3.0, -1.2),
+    # the regularisation width is 1 mrad/s (module docstring): tanh(1) and tanh(0.5) typed by hand
+    ("coulomb_friction", 0.0, 1e-3, -0.45 * 0.7615941559557649),
+    ("rolling_resistance", 0.0, -0.5e-3, 1.2 * 0.46211715726000974),
 ])
 def test_laws_at_hand_values(name, q, qd, expected):
     got = fx.torque(name, np.array([q]), np.array([qd]), PARAMS[name], CONTEXT)[0]
@@ -113,3 +116,19 @@ def test_total_torque_sums_effects_and_unknown_names_are_refused():
         fx.torque("magic", q, qd, {})
     with pytest.raises(ValueError, match="k_g"):
         fx.torque("com_offset", q, qd, {"delta": 0.1})
+
+
+def test_com_offset_takes_k_g_from_the_experiment_context():
+    """k_g = m g d is the experiment's, not a constant: -k_g [sin(q - delta) - sin(q)] with
+    k_g = 10, q = 0.1, delta = 0.05 is -10 (0.0499792 - 0.0998334) = 0.4985425 N m."""
+    got = fx.torque("com_offset", np.array([0.1]), np.array([0.0]), {"delta": 0.05}, {"k_g": 10.0})[0]
+    assert got == pytest.approx(0.49854247376, rel=1e-9)
+
+
+def test_stiction_bounds_are_the_former_amplitude_bounds_times_the_peak():
+    """The tau_s parameter's typical size and upper bound are 0.3 and 10 N m times
+    STICTION_PEAK (0.178 and 5.94 N m), so the fits start from the same grid as before."""
+    (p,) = fx.LIBRARY["stiction"].params
+    assert (p.name, p.unit, p.lo) == ("tau_s", "N m", 0.0)
+    assert p.hi == pytest.approx(5.936154838, rel=1e-8)
+    assert p.typical == pytest.approx(0.17808464514, rel=1e-8)

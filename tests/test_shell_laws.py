@@ -51,6 +51,23 @@ def test_modulus_rises_with_pressure_and_is_near_the_authors_default_at_13_8_kpa
     assert e[2] == pytest.approx(ROBOT.data["hydroelastic_defaults"]["modulus_pa"], rel=0.05)
 
 
+def test_regressions_and_injected_terms_at_hand_values():
+    """Eq. 6 regressions and eq. 7-8 typed from the paper at one state."""
+    assert shell.zeta_of_p(13.8, 0.3, -0.05) == pytest.approx(0.3 * 0.5015760690660556, rel=1e-12)  # e^-0.69
+    assert shell.omega_n_of_p(13.8, 2.2, 0.04) == pytest.approx(2.752, rel=1e-12)
+    assert shell.k_inject(2.5, 4.0, 10.0) == pytest.approx(15.0)        # 2.5^2 * 4 - 10
+    assert shell.c_inject(0.1, 2.5, 4.0) == pytest.approx(2.0)          # 2 * 4 * 2.5 * 0.1
+
+
+def test_contact_volume_at_a_hand_value_and_a_patch_as_wide_as_the_shell():
+    """W = pi N, R = 1 m: at p = 4 Pa the patch has a = 0.5 m, depth 1 - sqrt(0.75), volume
+    pi h^2 (3 - h) / 3 = 0.0538708 m^3; at p = 1 Pa the patch is the shell's equator (a = R),
+    which the membrane model cannot carry and refuses."""
+    assert shell.contact_volume(4.0, math.pi, 1.0) == pytest.approx(0.05387081762970044, rel=1e-12)
+    with pytest.raises(ValueError, match="too low"):
+        shell.contact_volume(1.0, math.pi, 1.0)
+
+
 def test_impossible_pressures_are_refused():
     with pytest.raises(ValueError, match="positive"):
         shell.contact_volume(0.0, ROBOT.weight_n, ROBOT.radius)
