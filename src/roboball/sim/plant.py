@@ -162,12 +162,17 @@ class Built:
     force_system: object = None
 
 
-def shell_coefficients(robot: RobotFacts, spec: SimSpec) -> tuple[float, float]:
-    """(K_inject, C_inject) from the spec's zeta and omega_n (eq. 7-8)."""
-    sp = spec.shell
-    if sp.zeta is None or sp.omega_n is None:
+def _require_shell_rocking(spec: SimSpec) -> None:
+    """Refuse a spec whose contact needs the shell's zeta and omega_n but lacks them."""
+    if spec.shell.zeta is None or spec.shell.omega_n is None:
         raise ValueError(f"contact '{spec.contact}' needs the shell's zeta and omega_n at the pressure "
                          "(pass --zeta/--omega-n or a shell regression table)")
+
+
+def shell_coefficients(robot: RobotFacts, spec: SimSpec) -> tuple[float, float]:
+    """(K_inject, C_inject) from the spec's zeta and omega_n (eq. 7-8)."""
+    _require_shell_rocking(spec)
+    sp = spec.shell
     k = shell_laws.k_inject(sp.omega_n, robot.M_eq, robot.K_eq)
     c = shell_laws.c_inject(sp.zeta, sp.omega_n, robot.M_eq)
     return k, c
@@ -202,7 +207,7 @@ def shell_tags(robot: RobotFacts, spec: SimSpec) -> ShellTags:
         if sp.hydro_dissipation is not None:
             dissipation = sp.hydro_dissipation
         else:
-            shell_coefficients(robot, spec)          # refuses a spec without zeta and omega_n
+            _require_shell_rocking(spec)
             dissipation = shell_laws.hydro_dissipation(sp.zeta, sp.omega_n, robot.M_eq)
         modulus *= sp.modulus_scale
         dissipation *= sp.dissipation_scale
