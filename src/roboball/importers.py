@@ -28,6 +28,7 @@ import pandas as pd
 from .recording import (
     Recording,
     _err,
+    _fields,
     _read_sidecar,
     _read_text,
     _split_lines,
@@ -87,7 +88,7 @@ def _integer_cells(path: Path, text: str, line_numbers, j: int) -> np.ndarray:
     out = np.empty(len(line_numbers), dtype=np.int64)
     for r, n in enumerate(line_numbers):
         line = lines[int(n) - 1]
-        cell = (next(csv.reader([line])) if '"' in line else line.split(","))[j].strip()
+        cell = _fields(line)[j].strip()
         try:
             v = int(cell)
         except ValueError:

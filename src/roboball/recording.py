@@ -209,6 +209,11 @@ def _split_lines(text: str) -> list[str]:
     return re.split(r"\r\n|\n|\r", text)
 
 
+def _fields(line: str) -> list[str]:
+    """The comma-separated fields of one CSV line (the csv module only when a field is quoted)."""
+    return next(csv.reader([line])) if '"' in line else line.split(",")
+
+
 def parse_numeric_csv(path: Path, text: str | None = None) -> tuple[list[str], np.ndarray, np.ndarray]:
     """Parse a numeric CSV with a header row.
 
@@ -247,10 +252,7 @@ def parse_numeric_csv(path: Path, text: str | None = None) -> tuple[list[str], n
     line_numbers = np.empty(len(rows), dtype=np.int64)
     last = len(rows) - 1
     for r, (line_no, line) in enumerate(rows):
-        if '"' in line:
-            fields = next(csv.reader([line]))
-        else:
-            fields = line.split(",")
+        fields = _fields(line)
         if len(fields) != ncol or (r == last and fields[-1].strip() == "" and ncol > 1):
             if r == last and len(fields) <= ncol:
                 raise _err(
