@@ -5,9 +5,8 @@
 Every model of Fig. 13/14 is started at the release instant the pipeline detects in the
 recording (roboball.releases, hinge fit on the drive rate) and scored from it.  The test bed
 knows when it let go (roboball.testbed.campaign.ramp_release_s).  Per ramp run this prints the
-detection error, the diagnosis' own fitted start shift (ts@0, relative to the detected instant),
-and each model's PME (eq. 12) as the pipeline scored it and as it would be had the run started at
-the true instant.  The second figure shifts the simulated trace by the detection error (a descent
+detection error and each model's PME (eq. 12) as the pipeline scored it and as it would be had
+the run started at the true instant.  The second figure shifts the simulated trace by the detection error (a descent
 from rest is autonomous, and the pipe angle was held still in between) instead of re-running
 Drake; samples below the PME speed floor stay out either way.
 """
@@ -42,13 +41,7 @@ def main():
         t_det = json.loads(rel.read_text())["releases"][0]["t_release_s"]
         t_true = ramp_release_s(job["file"], truth)
         err = t_det - t_true
-        # the pooled diagnosis at the run's pressure holds one release per run, in sorted run order
-        group = res / "diagnose" / "pressure" / f"ramp_{job['pressure_kpa']:g}kpa" / "details.json"
-        same = sorted(Path(j["file"]).stem for j in jobs(truth)
-                      if j["kind"] == "ramp" and j["pressure_kpa"] == job["pressure_kpa"])
-        ts = json.loads(group.read_text())["final_values"].get(f"ts@{same.index(stem)}") if group.is_file() else None
-        row = {"run": stem, "pressure_kpa": job["pressure_kpa"], "detected_minus_true_ms": 1e3 * err,
-               "diagnosis_ts_ms": None if ts is None else 1e3 * ts}
+        row = {"run": stem, "pressure_kpa": job["pressure_kpa"], "detected_minus_true_ms": 1e3 * err}
         for contact in CONTACTS:
             trace = res / "ramp" / contact / f"{stem}.trace.csv"
             if not trace.is_file():
@@ -62,7 +55,7 @@ def main():
         rows.append(row)
     df = pd.DataFrame(rows)
     pd.set_option("display.width", 200)
-    print(df[["run", "detected_minus_true_ms", "diagnosis_ts_ms"]].round(1).to_string(index=False))
+    print(df[["run", "detected_minus_true_ms"]].round(1).to_string(index=False))
     print(f"\ndetection error: median {df.detected_minus_true_ms.median():+.1f} ms, "
           f"range {df.detected_minus_true_ms.min():+.1f} to {df.detected_minus_true_ms.max():+.1f} ms")
     cols = [c for c in df.columns if c.endswith("_pme") or c.endswith("_pme_true_start")]

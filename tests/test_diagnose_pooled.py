@@ -136,6 +136,11 @@ def test_pooled_ramp_runs_against_fitted_friction_name_the_rolling_damping():
     assert "Majd friction (fitted)" in js["baseline"]["description"]
     assert len(d.prep.windows) == 2 and len(d.folds) == 2
     assert js["fit"]["rmse_heldout_after"] < 0.1 * js["fit"]["rmse_heldout_before"]
+    # Each run starts at rest at its detected release, the instant Fig. 13/14 scores every model
+    # from: no start shift is fitted (a late start would stand in for a rolling resistance).
+    assert not [k for k in list(d.final.values) + list(d.baseline.values) if k.startswith(("ts@", "q0@"))]
+    assert [js["baseline"]["fitted"][f"release_{i}_s"] for i in (1, 2)] == \
+        pytest.approx([w.t0 for w in d.prep.windows], abs=1e-5)      # six significant digits
 
 
 def test_diagnosed_ramp_model_runs_on_its_diagnoses_baseline_friction(tmp_path):

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from roboball.diagnose.models import StandModel, hermite, model_for
-from roboball.diagnose.report import RAMP_EXPLAINS, _param_cells, baseline_fitted, diagnosis_json
+from roboball.diagnose.report import RAMP_EXPLAINS, _heldout_note, _param_cells, baseline_fitted, diagnosis_json
 from roboball.physics import effects as fx
 
 
@@ -161,3 +161,20 @@ def test_release_states_are_numbered_from_one_and_include_the_fitted_time_shift(
 def test_report_parameter_cells_give_value_unit_and_both_interval_bounds():
     assert _param_cells("coulomb_friction", "tau_c", 0.48, [0.45, 0.51]) == ("tau_c = 0.48 N m", "[0.45, 0.51]")
     assert _param_cells("backlash", "b", 0.0123, [0.01, None]) == ("b = 0.0123 rad", "[0.01, -]")
+
+
+def test_heldout_note_says_what_was_refitted_on_the_held_out_release():
+    """The report's held-out sentence follows the model: a release state refitted on the held-out
+    release (stands, shell), none at all (the ramp starts at its detected release), or time blocks."""
+    def d(kind, base_params=()):
+        model = model_for(kind, **({"ramp_angle_deg": 16.0} if kind == "ramp" else {}))
+        return SimpleNamespace(model=SimpleNamespace(release_params=model.release_params, base_params=base_params),
+                               settings=SimpleNamespace(n_blocks=3))
+    stand = _heldout_note(d("steer_stand", ("viscous_c",)), 3)
+    assert "then only the held-out release's state fitted" in stand and "baseline fits no" not in stand
+    shell = _heldout_note(d("shell_rock"), 3)
+    assert "besides the release states" in shell
+    ramp = _heldout_note(d("ramp"), 2)
+    assert "predicts the held-out one from its detected release" in ramp and "no parameter at all" in ramp
+    assert "3 contiguous time blocks" in _heldout_note(d("ramp"), 1)
+    assert model_for("ramp", ramp_angle_deg=16.0).release_params == ()

@@ -48,11 +48,13 @@ from .physics import friction as friction_laws
 class RampModel(ReducedModel):
     """Planar ramp descent: rolling shell + pendulum about the driveshaft."""
 
-    release_params = ("t_shift",)
-    # s: the start of motion is sharp; the release finder's hinge fit is within -1.5..+2.1 ms of
-    # the test bed's let-go instants (benchmarks/ramp_release_audit.py).  A wider bound lets a late
-    # start stand in for a torque that acts from the first instant (rolling resistance).
-    ts_bound = 0.0025
+    # No release state is fitted: the descent starts at rest at the instant the release finder
+    # detects (its hinge fit is within -1.5..+2.1 ms of the test bed's let-go instants,
+    # benchmarks/ramp_release_audit.py), the instant from which every model of Fig. 13/14,
+    # the diagnosed one included, is run and scored.  A fitted start is confounded with a torque
+    # that acts from the first instant: with a 2.5 ms bound every pooled ramp diagnosis put its
+    # start at the bound, late, standing in for part of the rolling resistance.
+    release_params = ()
 
     def __init__(self, robot: RobotFacts | None = None, ramp_angle_deg: float | None = None,
                  friction: dict | None = None):

@@ -2,7 +2,8 @@
 
 A *problem* is one least-squares fit: a set of effects added to the baseline, the parameters to
 fit (baseline parameters such as the stand's viscous coefficient, the effects' parameters and the
-release state of every release: value q0@i and instant shift ts@i) and which samples count (all
+release state of every release: value q0@i and instant shift ts@i, those of the model's
+`release_params`) and which samples count (all
 of them for the full fit; all but a held-out release or block for cross-validation).  The cost is
 the sum of squared differences between the recording and the reduced model SIMULATED from each
 release over the whole free response, not a regression on differentiated data (which noise
@@ -82,8 +83,9 @@ class Engine:
                 self.info[f"{name}.{p.name}"] = (p.typical, p.lo, p.hi)
         for w in prep.windows:
             self.info[f"q0@{w.index}"] = (0.01, w.q0 - Q0_BOUND, w.q0 + Q0_BOUND)
-            tb = getattr(model, "ts_bound", TS_BOUND)
-            self.info[f"ts@{w.index}"] = (0.01, -tb, tb)
+            if "t_shift" in model.release_params:
+                tb = getattr(model, "ts_bound", TS_BOUND)
+                self.info[f"ts@{w.index}"] = (0.01, -tb, tb)
         self.n_sims = 0
         self.n_calls = 0
         self.sim_time = 0.0
@@ -94,7 +96,8 @@ class Engine:
         for w in self.prep.windows:
             if "q0" in self.model.release_params:
                 v[f"q0@{w.index}"] = w.q0
-            v[f"ts@{w.index}"] = 0.0
+            if "t_shift" in self.model.release_params:
+                v[f"ts@{w.index}"] = 0.0
         return v
 
     def release_keys(self, windows=None) -> list:
@@ -104,7 +107,8 @@ class Engine:
                 continue
             if "q0" in self.model.release_params:
                 out.append(f"q0@{w.index}")
-            out.append(f"ts@{w.index}")
+            if "t_shift" in self.model.release_params:
+                out.append(f"ts@{w.index}")
         return out
 
     # ---- batched prediction ----------------------------------------------------------------

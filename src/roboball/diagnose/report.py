@@ -248,6 +248,24 @@ def _fmt(x, n=4):
     return f"{x:.{n}g}"
 
 
+def _heldout_note(d: Diagnosis, n_windows: int) -> str:
+    """How the report's held-out errors were made."""
+    if n_windows > 1:
+        how = ("leave one release out (the model fitted on the other releases, then only the held-out release's "
+               "state fitted)" if d.model.release_params else
+               "leave one release out (the model fitted on the other releases predicts the held-out one from its "
+               "detected release)")
+    else:
+        how = f"{d.settings.n_blocks} contiguous time blocks, each predicted by a fit to the others"
+    if d.model.base_params:
+        return f"Held out: {how}."
+    if d.model.release_params:
+        return (f"Held out: {how}. The baseline fits no parameter of its own besides the release states, so its "
+                "held-out error is (nearly) its fitted error.")
+    return (f"Held out: {how}. The baseline fits no parameter at all (each release starts at rest at its detected "
+            "instant), so its held-out error is its fitted error.")
+
+
 def report_md(d: Diagnosis, js: dict, located_base, located_final, figures, drake_stats) -> str:
     prep = d.prep
     u = prep.unit
@@ -305,11 +323,7 @@ def report_md(d: Diagnosis, js: dict, located_base, located_final, figures, drak
                          ("reduced model, held out", _fmt(d.baseline.cv_rmse), _fmt(d.final.cv_rmse)),
                          ("Drake, fitted parameters", _fmt(drake_stats[0]), _fmt(drake_stats[1]))],
                         ["RMS residual (" + u + ")", "baseline", "augmented"]), "",
-              "Held out: " + ("leave one release out (the model fitted on the other releases, then only the "
-                              "held-out release's state fitted)" if len(prep.windows) > 1 else
-                              f"{d.settings.n_blocks} contiguous time blocks, each predicted by a fit to the others")
-              + (". The baseline fits no parameter of its own besides the release states, so its held-out error "
-                 "is (nearly) its fitted error." if not d.model.base_params else "."),
+              _heldout_note(d, len(prep.windows)),
               "", "![recording, baseline and augmented model in Drake](overlay.png)", ""]
     lines += ["## Selection", "", "Each round adds every remaining candidate in turn and refits by simulation "
               f"error; the best {d.settings.top_k} by fit are cross-validated. A candidate qualifies when it "
