@@ -222,9 +222,8 @@ class ShellModel(ReducedModel):
         self.mass, self.i_com = m, i_c
         self.radius = rolling_radius(robot)
         self.d = math.hypot(yc, zc)
-        self.rest = float(math.atan2(yc, zc)) if zc != 0 else 0.0
-        # atan2(yc, zc) is near +-pi for zc < 0; the rest angle solves yc cos(phi) = zc sin(phi)
-        # with the centre of mass below the centre: phi_r = atan(yc / zc).
+        # The rest angle solves yc cos(phi) = zc sin(phi) with the centre of mass below the centre
+        # (zc < 0, where atan2(yc, zc) would give the angle near +-pi): phi_r = atan(yc / zc).
         self.rest = float(math.atan(yc / zc))
         self.k_g = m * robot.g * self.d
         self.context = {"k_g": self.k_g}

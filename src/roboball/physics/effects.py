@@ -28,7 +28,7 @@ Conventions and modelling choices
   bristles) loaded, which a reversal, a slide of a few hundredths of a milliradian, does not
   do; a hump 20 mrad/s wide acted at every reversal, delayed it, and on the blind benchmark
   made the diagnosis take stiction's phase error for a stiffness or a drag.  tau_s is the most
-  the hump adds to kinetic friction (its peak, at 1 mrad/s): the shape exp(-x^2) tanh(2 x),
+  the hump adds to kinetic friction (its peak, at 1.03 mrad/s): the shape exp(-x^2) tanh(2 x),
   x = qd / V_STRIBECK, peaks at STICTION_PEAK = 0.594, and the law divides by it, so tau_s is
   the breakaway excess the law can hold, comparable with a real contact's F_s - F_c.
 * com_offset is a geometric change: the centre of mass sits rotated by `delta` about the
