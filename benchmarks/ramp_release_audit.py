@@ -6,9 +6,9 @@ Every model of Fig. 13/14 is started at the release instant the pipeline detects
 recording (roboball.releases, hinge fit on the drive rate) and scored from it.  The test bed
 knows when it let go (roboball.testbed.campaign.ramp_release_s).  Per ramp run this prints the
 detection error and each model's PME (eq. 12) as the pipeline scored it and as it would be had
-the run started at the true instant.  The second figure shifts the simulated trace by the detection error (a descent
-from rest is autonomous, and the pipe angle was held still in between) instead of re-running
-Drake; samples below the PME speed floor stay out either way.
+the run started at the true instant.  The second figure shifts the simulated trace by the
+detection error (a descent from rest is autonomous, and the pipe angle was held still in
+between) instead of re-running Drake; samples below the PME speed floor stay out either way.
 """
 import argparse
 import json

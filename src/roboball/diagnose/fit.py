@@ -3,11 +3,10 @@
 A *problem* is one least-squares fit: a set of effects added to the baseline, the parameters to
 fit (baseline parameters such as the stand's viscous coefficient, the effects' parameters and the
 release state of every release: value q0@i and instant shift ts@i, those of the model's
-`release_params`) and which samples count (all
-of them for the full fit; all but a held-out release or block for cross-validation).  The cost is
-the sum of squared differences between the recording and the reduced model SIMULATED from each
-release over the whole free response, not a regression on differentiated data (which noise
-ruins).
+`release_params`) and which samples count (all of them for the full fit; all but a held-out
+release or block for cross-validation).  The cost is the sum of squared differences between the
+recording and the reduced model SIMULATED from each release over the whole free response, not a
+regression on differentiated data (which noise ruins).
 
 `Engine.fit` runs Levenberg-Marquardt on a list of problems together: every iteration, the
 trial points of all unfinished problems and their finite-difference perturbations are simulated
@@ -27,7 +26,6 @@ from ..physics import effects as fx
 from .data import Prepared
 from .models import DT, ReducedModel, hermite
 
-TS_BOUND = 0.2        # s: release instant may move this far from the release finder's (models may narrow it)
 Q0_BOUND = 0.1        # rad: release value may move this far from the hold level
 FD_REL = 0.01         # forward-difference step, in units of the parameter's typical size
 DIVERGED = 1e3        # value given to a simulation that blew up
@@ -81,11 +79,13 @@ class Engine:
         for name in model.candidates:
             for p in fx.LIBRARY[name].params:
                 self.info[f"{name}.{p.name}"] = (p.typical, p.lo, p.hi)
+        # How far a fitted release instant may move from the release finder's (s; 0 for a model
+        # that fits no instant): bounds the fit and lengthens every simulation by as much.
+        self.max_shift = model.ts_bound if "t_shift" in model.release_params else 0.0
         for w in prep.windows:
             self.info[f"q0@{w.index}"] = (0.01, w.q0 - Q0_BOUND, w.q0 + Q0_BOUND)
             if "t_shift" in model.release_params:
-                tb = getattr(model, "ts_bound", TS_BOUND)
-                self.info[f"ts@{w.index}"] = (0.01, -tb, tb)
+                self.info[f"ts@{w.index}"] = (0.01, -self.max_shift, self.max_shift)
         self.n_sims = 0
         self.n_calls = 0
         self.sim_time = 0.0
@@ -121,7 +121,7 @@ class Engine:
         P = {k: np.fromiter((v.get(k, 0.0) for v, _ in items), float, B) for k in self.p_keys}
         q0 = np.fromiter((v.get(f"q0@{w}", self.windows[w].q0) for v, w in items), float, B)
         ts = np.fromiter((v.get(f"ts@{w}", 0.0) for v, w in items), float, B)
-        horizon = max(self.windows[w].duration for _, w in items) + TS_BOUND + 0.05
+        horizon = max(self.windows[w].duration for _, w in items) + self.max_shift + 0.05
         n_steps = int(math.ceil(horizon / self.dt)) + 1
         import time as _time
         t0 = _time.process_time()
