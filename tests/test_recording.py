@@ -355,33 +355,28 @@ def _message(path: Path, **flags) -> str:
     return str(info.value)
 
 
-def test_crlf_line_numbers_count_each_line_once(tmp_path):
-    path = _csv(tmp_path, "crlf.csv", "time_s,steer_angle_rad\r\n0,0.1\r\n0.01,x\r\n0.02,0.1\r\n")
-    assert _message(path) == (f"{path}: line 3, column steer_angle_rad: 'x' is not a number; "
-                              "fix the cell or delete the row")
-
-
-def test_duplicate_column_names_both_column_numbers(tmp_path):
-    path = _csv(tmp_path, "dup.csv", "time_s,steer_angle_rad,pipe_angle_rad,steer_angle_rad\n0,0.1,0,0\n0.01,0.1,0,0\n")
-    assert _message(path) == (f"{path}: line 1 (header): column steer_angle_rad appears twice "
-                              "(columns 2 and 4); keep one of them")
-
-
-def test_degree_column_named_with_its_1_based_column_number(tmp_path):
-    path = _csv(tmp_path, "deg.csv", "time_s,pipe_angle_rad,steer_angle_deg\n0,0.1,5\n0.01,0.1,5\n")
-    assert _message(path) == (f"{path}: line 1 (header), column 3: column 'steer_angle_deg' is in degrees; "
-                              "units must be SI; convert degrees to radians and name it steer_angle_rad")
-
-
-def test_time_backwards_names_both_file_lines_across_a_blank_line(tmp_path):
-    path = _csv(tmp_path, "back.csv", "time_s,steer_angle_rad\n0,0.1\n\n0.02,0.1\n0.01,0.1\n")
-    assert _message(path) == (f"{path}: line 5, column time_s: time goes backwards (0.01 s after 0.02 s on line 4); "
-                              "sort the rows by time or remove the out-of-order sample")
-
-
-def test_single_data_row_is_refused_as_such(tmp_path):
-    path = _csv(tmp_path, "one.csv", "time_s,steer_angle_rad\n0,0.1\n")
-    assert _message(path) == f"{path}: file: only one data row; a recording needs at least two samples"
+@pytest.mark.parametrize("text, message", [
+    pytest.param("time_s,steer_angle_rad\r\n0,0.1\r\n0.01,x\r\n0.02,0.1\r\n",
+                 "line 3, column steer_angle_rad: 'x' is not a number; fix the cell or delete the row",
+                 id="crlf_line_numbers_count_each_line_once"),
+    pytest.param("time_s,steer_angle_rad,pipe_angle_rad,steer_angle_rad\n0,0.1,0,0\n0.01,0.1,0,0\n",
+                 "line 1 (header): column steer_angle_rad appears twice (columns 2 and 4); keep one of them",
+                 id="duplicate_column_names_both_column_numbers"),
+    pytest.param("time_s,pipe_angle_rad,steer_angle_deg\n0,0.1,5\n0.01,0.1,5\n",
+                 "line 1 (header), column 3: column 'steer_angle_deg' is in degrees; units must be SI; "
+                 "convert degrees to radians and name it steer_angle_rad",
+                 id="degree_column_named_with_its_1_based_column_number"),
+    pytest.param("time_s,steer_angle_rad\n0,0.1\n\n0.02,0.1\n0.01,0.1\n",
+                 "line 5, column time_s: time goes backwards (0.01 s after 0.02 s on line 4); "
+                 "sort the rows by time or remove the out-of-order sample",
+                 id="time_backwards_names_both_file_lines_across_a_blank_line"),
+    pytest.param("time_s,steer_angle_rad\n0,0.1\n",
+                 "file: only one data row; a recording needs at least two samples",
+                 id="single_data_row_is_refused_as_such"),
+])
+def test_bad_file_gets_its_one_line_message(tmp_path, text, message):
+    path = _csv(tmp_path, "bad.csv", text)
+    assert _message(path) == f"{path}: {message}"
 
 
 def test_angle_just_above_two_pi_is_degrees(tmp_path):
