@@ -154,8 +154,10 @@ def table1(fits: list, out_csv: str, out_md: str, comparison_csv: str = "", robo
         md += ["", "## Posterior sampling (emcee)", "",
                "A chain is converged when its length after burn-in is at least `autocorr_multiple` "
                "integrated autocorrelation times (tau) of its slowest parameter. A chain that reaches "
-               "`friction.max_steps` first is marked **no**: its medians and intervals carry more Monte "
-               "Carlo error than the others'. ESS: effective sample size of the slowest parameter.", "",
+               "`friction.max_steps` first is marked **no**: a chain that has not mixed underestimates its "
+               "own tau, so its ESS is optimistic and its intervals may be narrower than the posterior's "
+               "(read them as lower bounds on the uncertainty). ESS: effective sample size of the "
+               "slowest parameter.", "",
                "| recording | joint | law | steps | burn-in | slowest tau (steps) | chain / tau | min ESS | converged |",
                "|---|---|---|---|---|---|---|---|---|"] + chains
     if comparison_csv:
