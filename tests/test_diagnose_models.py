@@ -6,6 +6,7 @@ import pytest
 from roboball.diagnose.drake import effect_term
 from roboball.diagnose.models import model_for
 from roboball.physics import effects as fx
+from roboball.pipeline.simulation import pme
 from roboball.sim.plant import SimSpec
 from roboball.sim.scenarios import simulate
 
@@ -82,15 +83,32 @@ def test_shell_with_damping_and_stiffness_matches_drake_point_contact():
     assert half < 0.9 * np.pi / np.sqrt(model.k_g / model.m_eq)
 
 
-def test_planar_ramp_matches_drake_ramp_with_rolling_resistance():
-    """Tolerance: 2% of the top drive rate over 1.5 s; steer joint and roll left out of the
-    planar model."""
-    effects = {"rolling_resistance": {"tau_rr": 2.0}, "viscous_damping": {"c": 1.0}}
-    yr, yd = _compare("ramp", 0.0, 1.5, effects, {},
+RAMP_DESCENT_S = 1.76     # the longest descent of the campaign's ramp runs, release to ramp exit
+
+
+@pytest.mark.parametrize("effects", [
+    {"rolling_resistance": {"tau_rr": 2.0}, "viscous_damping": {"c": 1.0}},
+    {"viscous_damping": {"c": 4.5}},                                        # the 6.9 kPa diagnosis
+    {"viscous_damping": {"c": 3.65}, "rolling_resistance": {"tau_rr": 0.73}},
+    {"viscous_damping": {"c": 2.6}, "rolling_resistance": {"tau_rr": 1.3}, "quadratic_drag": {"c2": 0.1}},
+], ids=["rr+damping", "damping", "damping+rr_pipeline", "all_three"])
+def test_planar_ramp_matches_drake_ramp_over_a_whole_descent(effects):
+    """The diagnosis fits ramp effects with the planar model and Fig. 13/14 score them in Drake,
+    so the two must agree at the scale eq. 12 compares models on (tenths of a percent): over
+    the longest descent, at most 0.5% of the top drive rate apart (measured 0.09-0.24%), and
+    eq. 12's mean relative difference between them within 0.1% (measured -0.001 to +0.035%).
+    The planar model leaves out the steer joint and the roll."""
+    yr, yd = _compare("ramp", 0.0, RAMP_DESCENT_S, effects, {},
                       dict(friction={"steer": "majd", "drive": "majd"}), 1e-3)
-    assert np.max(np.abs(yr - yd)) < 0.02 * np.max(np.abs(yd))
-    base_r, base_d = _compare("ramp", 0.0, 1.5, {}, {}, dict(friction={"steer": "majd", "drive": "majd"}), 1e-3)
-    assert yd[-1] < base_d[-1] - 0.3       # the effects slow the descent
+    assert np.max(np.abs(yr - yd)) < 0.005 * np.max(np.abs(yd))
+    assert abs(pme(yd, yr)) < 0.1      # eq. 12 of the planar model against Drake, percent
+
+
+def test_ramp_effects_slow_the_descent_in_drake():
+    effects = {"rolling_resistance": {"tau_rr": 2.0}, "viscous_damping": {"c": 1.0}}
+    _, yd = _compare("ramp", 0.0, 1.5, effects, {}, dict(friction={"steer": "majd", "drive": "majd"}), 1e-3)
+    _, base_d = _compare("ramp", 0.0, 1.5, {}, {}, dict(friction={"steer": "majd", "drive": "majd"}), 1e-3)
+    assert yd[-1] < base_d[-1] - 0.3
 
 
 def test_effect_term_is_one_symbolic_force_system():
