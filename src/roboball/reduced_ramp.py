@@ -29,7 +29,10 @@ force including the pendulum's swing).  Since mu < tan(16 deg), a strong braking
 shell (heavy damping near top speed) makes it SLIDE down the ramp with F = mu N opposing the
 slip, as Drake's point contact does; the model switches per batch member and re-sticks when the
 slip velocity s' - R theta' changes sign.  Left out: the steer joint and the roll (pipe_angle)
-motion, which stay within a few hundredths of a radian on the ramp.
+motion.  In Drake the pendulum swings sideways on the steer joint during a descent, by up to
+0.07 rad with Table I friction and 0.11 rad with the weaker steer friction fitted on the stand
+logs; the planar model then runs up to 0.2% (Table I) or 0.6% (fitted) of the top rate faster,
++0.02% or +0.09% by eq. 12 (tests/test_diagnose_models.py).
 
 Integration: explicit midpoint (RK2) with a fixed step (2 ms), the contact mode frozen within
 a step, like roboball.diagnose.models.
