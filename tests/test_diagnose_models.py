@@ -20,13 +20,17 @@ def _flat(effects):
     return {f"{e}.{p}": v for e, ps in effects.items() for p, v in ps.items()}
 
 
-def _compare(kind, q0, duration, effects, base, spec_kw, dt_drake):
-    model = model_for(kind)
+def _run_both(model, kind, q0, duration, effects, base, spec_kw, dt_drake):
+    """The reduced model and Drake (with the same effects as a force element) from the same
+    start: (reduced at Drake's sample times, Drake's signal, Drake's samples)."""
     t, y = _reduced(model, q0, {**base, **_flat(effects)}, duration)
     spec = SimSpec(kind=kind, contact="point", dt=dt_drake, extra_terms=[effect_term(model, effects)], **spec_kw)
     df = simulate(spec, q0, duration, sample_rate_hz=500)
-    yd = df[model.signal].to_numpy()
-    yr = np.interp(df.time_s.to_numpy(), t, y)
+    return np.interp(df.time_s.to_numpy(), t, y), df[model.signal].to_numpy(), df
+
+
+def _compare(kind, q0, duration, effects, base, spec_kw, dt_drake):
+    yr, yd, _ = _run_both(model_for(kind), kind, q0, duration, effects, base, spec_kw, dt_drake)
     return yr, yd
 
 
@@ -118,13 +122,8 @@ def test_planar_ramp_with_the_pipelines_fitted_friction_stays_close_to_drake():
     on the campaign's runs is 0.05-0.16 points below the planar model's, README).  Held to 1%
     and 0.15%, so that a larger departure is seen."""
     effects = {"viscous_damping": {"c": 3.65}, "rolling_resistance": {"tau_rr": 0.73}}
-    model = model_for("ramp", friction=STAND_FITTED_MAJD)
-    t, y = _reduced(model, 0.0, _flat(effects), RAMP_DESCENT_S)
-    spec = SimSpec(kind="ramp", contact="point", dt=1e-3, extra_terms=[effect_term(model, effects)],
-                   friction={"steer": "majd", "drive": "majd"}, friction_params=STAND_FITTED_MAJD)
-    df = simulate(spec, 0.0, RAMP_DESCENT_S, sample_rate_hz=500)
-    yd = df[model.signal].to_numpy()
-    yr = np.interp(df.time_s.to_numpy(), t, y)
+    yr, yd, df = _run_both(model_for("ramp", friction=STAND_FITTED_MAJD), "ramp", 0.0, RAMP_DESCENT_S, effects, {},
+                           dict(friction={"steer": "majd", "drive": "majd"}, friction_params=STAND_FITTED_MAJD), 1e-3)
     assert np.max(np.abs(yr - yd)) < 0.01 * np.max(np.abs(yd))
     assert 0.0 < pme(yd, yr) < 0.15          # the planar model is the faster one
     assert np.max(np.abs(df["steer_angle_rad"])) < 0.15

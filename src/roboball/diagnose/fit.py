@@ -91,25 +91,21 @@ class Engine:
         self.sim_time = 0.0
 
     # ---- starting values -------------------------------------------------------------------
+    def _release_state(self, w) -> dict:
+        """The fitted release state of window `w` (those of the model's `release_params`) with its
+        starting values: the hold level and no shift of the detected instant."""
+        start = {"q0": (f"q0@{w.index}", w.q0), "t_shift": (f"ts@{w.index}", 0.0)}
+        return dict(start[p] for p in ("q0", "t_shift") if p in self.model.release_params)
+
     def initial_values(self) -> dict:
         v = {b.name: b.start for b in self.model.base_params}
         for w in self.prep.windows:
-            if "q0" in self.model.release_params:
-                v[f"q0@{w.index}"] = w.q0
-            if "t_shift" in self.model.release_params:
-                v[f"ts@{w.index}"] = 0.0
+            v.update(self._release_state(w))
         return v
 
     def release_keys(self, windows=None) -> list:
-        out = []
-        for w in self.prep.windows:
-            if windows is not None and w.index not in windows:
-                continue
-            if "q0" in self.model.release_params:
-                out.append(f"q0@{w.index}")
-            if "t_shift" in self.model.release_params:
-                out.append(f"ts@{w.index}")
-        return out
+        return [k for w in self.prep.windows if windows is None or w.index in windows
+                for k in self._release_state(w)]
 
     # ---- batched prediction ----------------------------------------------------------------
     def predict(self, items):
