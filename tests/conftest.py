@@ -6,6 +6,14 @@ import pytest
 os.environ.setdefault("MPLBACKEND", "Agg")
 
 
+def recording_error(read, path, **flags) -> str:
+    """The one-line RecordingError message `read(path, **flags)` raises (fails if it raises none)."""
+    from roboball.recording import RecordingError
+    with pytest.raises(RecordingError) as info:
+        read(path, **flags)
+    return str(info.value)
+
+
 def fit_damped(t, y):
     """Independent damped-sinusoid fit used to check Drake runs (not the project's extractor)."""
     from scipy.optimize import curve_fit

@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from conftest import recording_error
 from roboball.importers import detect_format, import_native, read_any
 from roboball.recording import RecordingError, write_recording
 
@@ -138,10 +139,8 @@ def _native(tmp_path: Path, text: str, name: str = "native.csv") -> Path:
     return path
 
 
-def _message(path: Path) -> str:
-    with pytest.raises(RecordingError) as info:
-        read_any(path)
-    return str(info.value)
+def _message(path: Path, read=read_any, **flags) -> str:
+    return recording_error(read, path, **flags)
 
 
 def test_epoch_nanoseconds_are_converted_exactly(tmp_path):
@@ -186,14 +185,10 @@ def test_native_errors_name_file_lines_across_blank_lines(tmp_path):
 
 def test_kind_flag_must_match_the_native_log(tmp_path):
     shell = _native(tmp_path, SHELL_HEADER + "0,-0.4,0\n10000000,-0.4,0\n", "shell.csv")
-    with pytest.raises(RecordingError) as info:
-        read_any(shell, kind="ramp")
-    assert str(info.value) == (f"{shell}: field kind: a shell log can only be kind shell_rock, not 'ramp'; "
+    assert _message(shell, kind="ramp") == (f"{shell}: field kind: a shell log can only be kind shell_rock, not 'ramp'; "
                                "drop --kind or use the matching log")
     steer = _native(tmp_path, "steer_timestamp,pend_angle\n0,-0.04\n0.01,-0.04\n", "steer.csv")
-    with pytest.raises(RecordingError) as info:
-        import_native(steer, kind="shell_rock")
-    assert str(info.value) == (f"{steer}: field kind: a steer log can only be kind steer_stand, not 'shell_rock'; "
+    assert _message(steer, import_native, kind="shell_rock") == (f"{steer}: field kind: a steer log can only be kind steer_stand, not 'shell_rock'; "
                                "drop --kind or use the matching log")
     assert read_any(steer, kind="steer_stand").kind == "steer_stand"
 

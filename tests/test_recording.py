@@ -13,6 +13,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from conftest import recording_error
 from roboball.atomic import atomic_write, csv_text, json_dumps_stable, write_csv_atomic, write_json_atomic
 from roboball.errors import RoboballError
 from roboball.recording import (
@@ -350,9 +351,7 @@ def _csv(tmp_path: Path, name: str, text: str, sidecar: str | None = STAND) -> P
 
 
 def _message(path: Path, **flags) -> str:
-    with pytest.raises(RecordingError) as info:
-        read_recording(path, **flags)
-    return str(info.value)
+    return recording_error(read_recording, path, **flags)
 
 
 @pytest.mark.parametrize("text, message", [
