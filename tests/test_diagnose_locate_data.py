@@ -274,3 +274,27 @@ def test_pooled_recordings_keep_the_coarsest_quantum_and_the_median_noise():
     p = pool([prep("a", 1e-3, 0.002), prep("b", 4e-3, 0.0), prep("c", 2e-3, 0.001)])
     assert p.quantum == 0.002
     assert p.noise == pytest.approx(2e-3)
+
+
+def test_fit_noise_is_the_sensor_noise_of_what_the_fit_compares():
+    """Raw windows: the sensor's noise.  An averaged (ramp) window: each value averages m samples,
+    whose independent noise leaves sigma^2 / m; fit_noise is sigma sqrt(mean 1/m).  At 64 Hz a
+    +-0.1 s boxcar holds 13 samples inside the window and shrinks to 1 at its two ends (and the
+    samples before the release stay raw)."""
+    t = np.arange(200) * DT
+    raw = _prepared(t, np.zeros_like(t), 0.0, 0.0, 0.5, noise=0.015)
+    assert raw.fit_noise == 0.015 and np.all(raw.windows[0].averaged_counts() == 1)
+    w = Window(index=0, t0=t[5], t=t, y=np.zeros_like(t), q0=0.0, release=raw.windows[0].release, smooth_s=0.1)
+    m = w.averaged_counts()
+    assert np.all(m[:6] == 1) and m[-1] == 1 and np.all(m[20:-20] == 13)
+    assert list(m[5:12]) == [1, 3, 5, 7, 9, 11, 13]              # symmetric windows at the start
+    ramp = Prepared(recording=None, kind="ramp", signal="drive_rate_rad_s", unit="rad/s", windows=[w],
+                    noise=0.015, quantum=0.0)
+    assert ramp.fit_noise == pytest.approx(0.015 * math.sqrt(np.mean(1.0 / m)))
+    assert 0.015 / math.sqrt(13) < ramp.fit_noise < 0.015 / 2
+    # observe() averages a prediction with the same windows (a constant passes, a ramp's curvature does not)
+    y = np.where(t >= t[5], (t - t[5]) ** 2, 0.0)
+    seen = w.observe(y)
+    assert np.allclose(w.observe(np.ones_like(t)), 1.0)
+    inner = slice(30, -30)
+    assert np.allclose(seen[inner] - y[inner], np.mean((np.arange(-6, 7) * DT) ** 2))   # f'' h^2/6-type bias

@@ -18,11 +18,12 @@ NOISE = 1e-3
 CI_CLEAR = {"viscous_damping.c": (1.0, 2.0)}
 
 
-def selector(noise: float = NOISE) -> Selector:
-    """A Selector with only what the keep rule reads (no recording, no fitting)."""
+def selector(noise: float = NOISE, fit_noise: float | None = None) -> Selector:
+    """A Selector with only what the keep rule reads (no recording, no fitting): the sensor's
+    noise and that of the signal the fit compares (the same unless the windows are averaged)."""
     sel = Selector.__new__(Selector)
     sel.s = Settings()
-    sel.prep = SimpleNamespace(noise=noise, windows=[])
+    sel.prep = SimpleNamespace(noise=noise, fit_noise=noise if fit_noise is None else fit_noise, windows=[])
     return sel
 
 
@@ -84,6 +85,23 @@ def test_material_means_four_noise_variances_of_heldout_mean_square(gain, fails)
     out = conditions(sel, scored(cv_rmse=cv), scored(cv_rmse=ref_cv))
     assert sel.heldout_gain(scored(cv_rmse=cv), scored(cv_rmse=ref_cv)) == pytest.approx(gain)
     assert ("material" in out) == fails and "heldout" not in out
+
+
+def test_materiality_is_counted_in_the_noise_of_the_signal_the_fit_compares():
+    """A ramp is fitted on its averaged trend, whose noise variance is about a tenth of the
+    sensor's: the same held-out gain is 0.85 sensor variances (immaterial) but 8.5 variances of
+    the trend (material), and the white-residual test uses the trend's noise too."""
+    ref_cv, cv = 0.0156, math.sqrt(0.0156 ** 2 - 0.85 * 0.0145 ** 2)
+    raw = selector(noise=0.0145)
+    trend = selector(noise=0.0145, fit_noise=0.0145 * math.sqrt(0.1))
+    assert raw.heldout_gain(scored(cv_rmse=cv), scored(cv_rmse=ref_cv)) == pytest.approx(0.85)
+    assert trend.heldout_gain(scored(cv_rmse=cv), scored(cv_rmse=ref_cv)) == pytest.approx(8.5)
+    assert conditions(raw, scored(cv_rmse=cv), scored(cv_rmse=ref_cv)) == ["material"]
+    assert conditions(trend, scored(cv_rmse=cv), scored(cv_rmse=ref_cv)) == []
+    quiet, loud = (scored(rss=1000 * (f * 0.0145 * math.sqrt(0.1)) ** 2, n=1000) for f in (1.2, 2.0))
+    quiet.rho1 = loud.rho1 = 0.1
+    assert trend.white(quiet) and not trend.white(loud)          # 1.5 levels of the trend's noise
+    assert raw.white(loud)                                        # would pass on the sensor's
 
 
 def test_material_share_raises_the_bar_when_set():

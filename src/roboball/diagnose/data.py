@@ -76,6 +76,31 @@ class Window:
     end_reason: str = ""
     start: str = "release"          # "release" (the hand lets go) or "turning point" (first one after it)
     source: Recording | None = None  # the recording the window was cut from (pooled diagnoses)
+    smooth_s: float = 0.0           # half-width of the average that made y a trend (0: y is raw)
+
+    def observe(self, y: np.ndarray) -> np.ndarray:
+        """What the fit compares with `y`: a model's prediction at the window's samples (shape
+        (..., n)) seen through the same operator that made `y` from the recording.  For a ramp
+        window `y` is the drive rate averaged over +-smooth_s after the release, and so is the
+        prediction: a centred average of a curved trend is biased (by f'' h^2 / 6: the rising,
+        flattening speed of a descent reads low just after the release), and comparing an
+        averaged recording with an unaveraged model would fit that bias as physics."""
+        if not self.smooth_s:
+            return np.asarray(y, dtype=float)
+        if "_bounds" not in self.__dict__:
+            self._bounds = boxcar_bounds(self.t, self.t0, self.smooth_s)
+        return apply_boxcar(self._bounds, y)
+
+    def averaged_counts(self) -> np.ndarray:
+        """How many recorded samples each value of `y` averages (1 where y is raw)."""
+        m = np.ones(self.n)
+        if self.smooth_s:
+            if "_bounds" not in self.__dict__:
+                self._bounds = boxcar_bounds(self.t, self.t0, self.smooth_s)
+            if self._bounds is not None:
+                idx, lo, hi = self._bounds
+                m[idx] = hi - lo
+        return m
 
     @property
     def duration(self) -> float:
@@ -103,6 +128,15 @@ class Prepared:
     @property
     def n(self) -> int:
         return sum(w.n for w in self.windows)
+
+    @property
+    def fit_noise(self) -> float:
+        """Noise level of the signal the fit compares with (same unit as `noise`): the sensor's
+        for raw windows; for averaged windows (a ramp's trend) the sensor noise of an average,
+        sigma sqrt(mean 1/m) over the samples, m of them averaged into each."""
+        inv = [w.averaged_counts() for w in self.windows]
+        inv = np.concatenate([1.0 / m for m in inv]) if inv else np.ones(1)
+        return float(self.noise * math.sqrt(np.mean(inv)))
 
     @property
     def label(self) -> str:
@@ -257,22 +291,38 @@ def _hold_releases(t, y, kind: str) -> list:
     return out
 
 
+def boxcar_bounds(t: np.ndarray, t0: float, half_width: float):
+    """The averaging windows of `smooth_after`: the indices `idx` of the samples at t >= t0 and,
+    for each, the half-open range [lo, hi) of those samples (indices into t[idx]) it averages.
+    None when fewer than three samples follow t0 (nothing is averaged)."""
+    idx = np.nonzero(t >= t0)[0]
+    if idx.size < 3:
+        return None
+    ta = t[idx]
+    h = np.minimum(half_width, np.minimum(ta - ta[0], ta[-1] - ta))
+    lo = np.searchsorted(ta, ta - h - 1e-12, side="left")
+    hi = np.searchsorted(ta, ta + h + 1e-12, side="right")
+    return idx, lo, hi
+
+
+def apply_boxcar(bounds, y: np.ndarray) -> np.ndarray:
+    """Apply the averaging windows `bounds` (boxcar_bounds) along the last axis of `y` (one
+    signal, or a batch of them, shape (..., n)); samples before t0 are kept as they are."""
+    out = np.array(y, dtype=float, copy=True)
+    if bounds is None:
+        return out
+    idx, lo, hi = bounds
+    ya = out[..., idx]
+    c = np.concatenate([np.zeros(ya.shape[:-1] + (1,)), np.cumsum(ya, axis=-1)], axis=-1)
+    out[..., idx] = (c[..., hi] - c[..., lo]) / (hi - lo)
+    return out
+
+
 def smooth_after(t: np.ndarray, y: np.ndarray, t0: float, half_width: float) -> np.ndarray:
     """Centred moving average of the samples at t >= t0 over +-half_width seconds (irregular
     sampling allowed); near either end the window shrinks to stay symmetric (so a linear
     trend is reproduced exactly).  Samples before t0 are returned as they are."""
-    out = np.array(y, dtype=float, copy=True)
-    idx = np.nonzero(t >= t0)[0]
-    if idx.size < 3:
-        return out
-    ta, ya = t[idx], out[idx]
-    c = np.concatenate([[0.0], np.cumsum(ya)])
-    for k, tk in enumerate(ta):
-        h = min(half_width, tk - ta[0], ta[-1] - tk)
-        lo = np.searchsorted(ta, tk - h - 1e-12, side="left")
-        hi = np.searchsorted(ta, tk + h + 1e-12, side="right")
-        out[idx[k]] = (c[hi] - c[lo]) / (hi - lo)
-    return out
+    return apply_boxcar(boxcar_bounds(np.asarray(t, float), t0, half_width), y)
 
 
 def prepare(rec: Recording) -> Prepared:
@@ -324,7 +374,8 @@ def prepare(rec: Recording) -> Prepared:
             notes.append(f"release {i + 1}: the drive rate after the release is averaged over +-{RAMP_SMOOTH_S:g} s "
                          "(the diagnosis fits the descent's trend, not a contact bounce)")
         windows.append(Window(index=len(windows), t0=t0, t=t[sel], y=yw, q0=q0,
-                              release=rel, end_reason=reason, start=start, source=rec))
+                              release=rel, end_reason=reason, start=start, source=rec,
+                              smooth_s=RAMP_SMOOTH_S if kind == "ramp" else 0.0))
     if not windows:
         raise RoboballError(f"{rec.label}: {signal}: no release long enough to diagnose (need 20 samples after a release)")
     return Prepared(recording=rec, kind=kind, signal=signal, unit=unit, windows=windows, noise=noise,

@@ -19,7 +19,10 @@
    - it lowers the held-out RMS by at least `cv_gain` = 5%;
    - it is material: it lowers the held-out mean square by at least `material_noise` = 4
      noise variances (an RMS of two noise levels), so the sub-noise corrections that absorb
-     small model-form differences (integrator, contact compliance) are not reported;
+     small model-form differences (integrator, contact compliance) are not reported.  The
+     noise is that of the signal the fit compares (`Prepared.fit_noise`): the sensor's, or
+     for a ramp's averaged trend the noise left in the average (about a tenth of the raw
+     variance); a trend's residual measured in raw variances would let nothing be material;
    - the 95% interval of its magnitude excludes zero, and so does that of every parameter at
      whose zero it becomes a simpler vocabulary entry (`Effect.reduces_to`: backlash whose
      free play b may be zero is linear stiffness, one parameter fewer for the same fit).
@@ -256,7 +259,7 @@ class Selector:
 
     def explained(self, sc: Scored, reference: Scored) -> float:
         """Mean squared residual the model removes relative to `reference`, in noise variances."""
-        return (reference.full.rss - sc.full.rss) / sc.full.n / self.prep.noise ** 2
+        return (reference.full.rss - sc.full.rss) / sc.full.n / self.prep.fit_noise ** 2
 
     def failures(self, sc: Scored, reference: Scored, base: Scored, ci: dict | None = None) -> list:
         """Every condition of the keep rule that `sc` fails against `reference`, in the rule's
@@ -268,7 +271,7 @@ class Selector:
             out.append(("bic", f"delta BIC {sc.delta_bic:.1f} not below -{s.bic_min:g}"))
         if not sc.cv_rmse < (1.0 - s.cv_gain) * reference.cv_rmse:
             out.append(("heldout", f"held-out RMS {sc.cv_rmse:.4g} not {s.cv_gain:.0%} below {reference.cv_rmse:.4g}"))
-        need = max(s.material_noise, s.material_share * base.cv_rmse ** 2 / self.prep.noise ** 2)
+        need = max(s.material_noise, s.material_share * base.cv_rmse ** 2 / self.prep.fit_noise ** 2)
         gain = self.heldout_gain(sc, reference)
         if not gain >= need:
             out.append(("material", f"lowers the held-out mean square by {gain:.3g} noise variances, below {need:.3g}"))
@@ -279,7 +282,7 @@ class Selector:
 
     def heldout_gain(self, sc: Scored, reference: Scored) -> float:
         """Held-out mean square `sc` removes relative to `reference`, in noise variances."""
-        return (reference.cv_rmse ** 2 - sc.cv_rmse ** 2) / self.prep.noise ** 2
+        return (reference.cv_rmse ** 2 - sc.cv_rmse ** 2) / self.prep.fit_noise ** 2
 
     def qualifies(self, sc: Scored, reference: Scored, base: Scored) -> tuple[bool, str]:
         """The keep rule: information criterion, held-out error, materiality, significance."""
@@ -287,7 +290,7 @@ class Selector:
         return (False, fails[0][1]) if fails else (True, "kept")
 
     def white(self, sc: Scored) -> bool:
-        return sc.rho1 < self.s.white_rho and sc.rmse <= self.s.white_factor * self.prep.noise
+        return sc.rho1 < self.s.white_rho and sc.rmse <= self.s.white_factor * self.prep.fit_noise
 
     # ---- confidence intervals -------------------------------------------------------------
     def ci95(self, sc: Scored) -> dict:
@@ -484,7 +487,7 @@ class Selector:
         return current, chosen
 
     def verdict(self, base: Scored, final: Scored, chosen) -> str:
-        s, noise = self.s, self.prep.noise
+        s, noise = self.s, self.prep.fit_noise
         if not chosen:
             structured = base.rho1 >= 0.5 and base.rmse > s.explained_factor * noise
             return "unexplained" if structured else "adequate"

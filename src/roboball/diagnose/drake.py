@@ -135,7 +135,7 @@ def simulate_windows(prep: Prepared, model: ReducedModel, values: dict, effects,
         df = simulate(spec, release, max(duration, 0.1), sample_rate_hz=rate, steer0=steer0, built=built)
         tau = w.t - w.t0 - ts
         y = df[prep.signal].to_numpy()
-        out[w.index] = np.interp(tau, df.time_s.to_numpy(), y, left=y[0])
+        out[w.index] = w.observe(np.interp(tau, df.time_s.to_numpy(), y, left=y[0]))
     return out
 
 

@@ -277,7 +277,11 @@ def report_md(d: Diagnosis, js: dict, located_base, located_final, figures, drak
              *([f"Refitted with the effects (the augmented model): "
                 f"{_assignments(js['baseline']['refitted_with_effects'])}", ""]
                if "refitted_with_effects" in js["baseline"] else []),
-             f"Noise level of the recording: {prep.noise:.3g} {u}; {len(prep.windows)} release(s) "
+             f"Noise level of the recording: {prep.noise:.3g} {u}"
+             + (f"; of the averaged trend the fit compares (the noise variances of the keep rule and the "
+                f"tests of a white or explained residual): {prep.fit_noise:.3g} {u}"
+                if prep.fit_noise != prep.noise else "")
+             + f"; {len(prep.windows)} release(s) "
              f"({', '.join(f'{w.t0:.2f}-{w.t[-1]:.2f} s (from the {w.start}; {w.end_reason})' for w in prep.windows)}).",
              "", "A window starts at the first turning point after the hand lets go when enough swings follow "
              "(the let-go itself, where the hand may still touch the body, is not simulated); the model "
@@ -372,6 +376,7 @@ def write(d: Diagnosis, out_dir, drake: bool = True) -> dict:
         "recording": str(d.prep.label),
         "signal": d.prep.signal,
         "noise": d.prep.noise,
+        "fit_noise": d.prep.fit_noise,   # of the signal the fit compares (a ramp's averaged trend)
         "windows": [dict(index=w.index + 1, t_release_s=w.t0, t_end_s=float(w.t[-1]), samples=w.n,
                          end_reason=w.end_reason, start=w.start, t_let_go_s=w.release.t_release_s)
                     for w in d.prep.windows],
