@@ -19,8 +19,8 @@ STAGES = ("uncertainty_report",)
 
 def _immaterial(details_path) -> str:
     """The candidates a diagnosis found supported by the data but below materiality, read from
-    its details.json when there is one, e.g. at 10.3 kPa "rolling_resistance (tau_rr = 0.342
-    [0.152, 0.533]; lowers the held-out mean square by 0.9 noise variances)"."""
+    its details.json when there is one, e.g. at 10.3 kPa "quadratic_drag (c2 = 0.054 [...]; lowers
+    the held-out mean square by 0.71 noise variances)" after the damping and rolling resistance."""
     path = Path(details_path)
     if not path.exists():
         return ""
