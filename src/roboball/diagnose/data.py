@@ -87,20 +87,22 @@ class Window:
         averaged recording with an unaveraged model would fit that bias as physics."""
         if not self.smooth_s:
             return np.asarray(y, dtype=float)
-        if "_bounds" not in self.__dict__:
-            self._bounds = boxcar_bounds(self.t, self.t0, self.smooth_s)
-        return apply_boxcar(self._bounds, y)
+        return apply_boxcar(self._boxcar(), y)
 
     def averaged_counts(self) -> np.ndarray:
         """How many recorded samples each value of `y` averages (1 where y is raw)."""
         m = np.ones(self.n)
-        if self.smooth_s:
-            if "_bounds" not in self.__dict__:
-                self._bounds = boxcar_bounds(self.t, self.t0, self.smooth_s)
-            if self._bounds is not None:
-                idx, lo, hi = self._bounds
-                m[idx] = hi - lo
+        bounds = self._boxcar() if self.smooth_s else None
+        if bounds is not None:
+            idx, lo, hi = bounds
+            m[idx] = hi - lo
         return m
+
+    def _boxcar(self):
+        """The averaging windows that made `y` (boxcar_bounds), computed once per window."""
+        if "_bounds" not in self.__dict__:
+            self._bounds = boxcar_bounds(self.t, self.t0, self.smooth_s)
+        return self._bounds
 
     @property
     def duration(self) -> float:
