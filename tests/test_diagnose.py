@@ -113,7 +113,9 @@ def test_cli_writes_the_contract_files(tmp_path, capsys):
     # the augmented model = the baseline refitted with the effects: its own values are given
     refit = js["baseline"]["refitted_with_effects"]
     assert set(refit) == set(js["baseline"]["fitted"])
-    assert "Refitted with the effects (the augmented model): viscous_c = " in (out / "report.md").read_text()
+    report = (out / "report.md").read_text()
+    assert "Refitted with the effects (the augmented model): viscous_c = " in report
+    assert "A window starts at the first turning point" in report and "averaged trend" not in report
     for loc in js["located"]:
         assert {"start_s", "end_s", "signal", "regime", "share_of_residual"} <= set(loc)
         assert loc["start_s"] <= loc["end_s"] and 0 <= loc["share_of_residual"] <= 1

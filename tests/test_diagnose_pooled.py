@@ -218,6 +218,7 @@ def test_the_hidden_pair_is_named_and_a_drag_below_materiality_is_reported_with_
     # the selection states the rule it applied and each candidate's decision
     assert "at least 4 noise variances (materiality)" in report
     assert "of the averaged trend the fit compares" in report
+    assert "A ramp window starts at the release" in report and "first turning point" not in report
     assert "| quadratic_drag |" in report.split("Round 3:")[1] and "below 4 |" in report.split("Round 3:")[1]
     assert _immaterial(out / "details.json").startswith("quadratic_drag (c2 = ")
     assert _immaterial(tmp_path / "absent" / "details.json") == ""

@@ -266,6 +266,18 @@ def _heldout_note(d: Diagnosis, n_windows: int) -> str:
             "instant), so its held-out error is its fitted error.")
 
 
+def _window_note(prep) -> str:
+    """How the report's windows start, per kind of experiment."""
+    if prep.kind == "ramp":
+        return ("A ramp window starts at the release the release finder detects and ends where the robot "
+                "leaves the ramp; the model starts there at rest (release_i_s is that detected instant, not "
+                "fitted) and its drive rate is averaged over the same +-0.1 s windows as the recording's.")
+    return ("A window starts at the first turning point after the hand lets go when enough swings follow "
+            "(the let-go itself, where the hand may still touch the body, is not simulated); the model "
+            "starts at rest there, and release_i_s / release_i_rad are its starting instant and angle, fitted "
+            "near the turning point's.")
+
+
 def report_md(d: Diagnosis, js: dict, located_base, located_final, figures, drake_stats) -> str:
     prep = d.prep
     u = prep.unit
@@ -283,10 +295,7 @@ def report_md(d: Diagnosis, js: dict, located_base, located_final, figures, drak
                 if prep.fit_noise != prep.noise else "")
              + f"; {len(prep.windows)} release(s) "
              f"({', '.join(f'{w.t0:.2f}-{w.t[-1]:.2f} s (from the {w.start}; {w.end_reason})' for w in prep.windows)}).",
-             "", "A window starts at the first turning point after the hand lets go when enough swings follow "
-             "(the let-go itself, where the hand may still touch the body, is not simulated); the model "
-             "starts at rest there, and release_i_s / release_i_rad are its starting instant and angle, fitted "
-             "near the turning point's.", ""]
+             "", _window_note(prep), ""]
     lines += ["## Where the baseline misses", "",
               _md_table([(f"{w['start_s']:.2f}-{w['end_s']:.2f} s", w["regime"], f"{w['share_of_residual']:.0%}")
                          for w in located_base.windows], ["time window", "regime", "share of squared residual"]), "",
