@@ -370,14 +370,15 @@ def prepare(rec: Recording) -> Prepared:
         if sel.sum() < 20:
             notes.append(f"release {i + 1} at {rel.t_release_s:.2f} s: too few samples, skipped")
             continue
-        yw = y[sel]
-        if kind == "ramp":
-            yw = smooth_after(t[sel], yw, t0, RAMP_SMOOTH_S)
-            notes.append(f"release {i + 1}: the drive rate after the release is averaged over +-{RAMP_SMOOTH_S:g} s "
+        w = Window(index=len(windows), t0=t0, t=t[sel], y=y[sel], q0=q0, release=rel, end_reason=reason,
+                   start=start, source=rec, smooth_s=RAMP_SMOOTH_S if kind == "ramp" else 0.0)
+        if w.smooth_s:
+            # the trend is the recording seen through the window's own operator, the one every
+            # prediction compared with it passes through (Window.observe)
+            w.y = w.observe(w.y)
+            notes.append(f"release {i + 1}: the drive rate after the release is averaged over +-{w.smooth_s:g} s "
                          "(the diagnosis fits the descent's trend, not a contact bounce)")
-        windows.append(Window(index=len(windows), t0=t0, t=t[sel], y=yw, q0=q0,
-                              release=rel, end_reason=reason, start=start, source=rec,
-                              smooth_s=RAMP_SMOOTH_S if kind == "ramp" else 0.0))
+        windows.append(w)
     if not windows:
         raise RoboballError(f"{rec.label}: {signal}: no release long enough to diagnose (need 20 samples after a release)")
     return Prepared(recording=rec, kind=kind, signal=signal, unit=unit, windows=windows, noise=noise,

@@ -271,7 +271,8 @@ def _window_note(prep) -> str:
     if prep.kind == "ramp":
         return ("A ramp window starts at the release the release finder detects and ends where the robot "
                 "leaves the ramp; the model starts there at rest (release_i_s is that detected instant, not "
-                "fitted) and its drive rate is averaged over the same +-0.1 s windows as the recording's.")
+                f"fitted) and its drive rate is averaged over the same +-{prep.windows[0].smooth_s:g} s windows "
+                "as the recording's.")
     return ("A window starts at the first turning point after the hand lets go when enough swings follow "
             "(the let-go itself, where the hand may still touch the body, is not simulated); the model "
             "starts at rest there, and release_i_s / release_i_rad are its starting instant and angle, fitted "
