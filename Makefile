@@ -20,11 +20,11 @@ $(STAMP): pyproject.toml requirements.lock
 
 # Regenerate every figure and table in paper_figures/ from raw_data/ (or only SNAKEMAKE_TARGETS,
 # e.g. make figures SNAKEMAKE_TARGETS=results/identify/shell_regression.csv).  After an
-# interrupted run (killed, power cut) roboball.runlock clears Snakemake's stale lock and
+# interrupted run (killed, power cut) roboball.pipeline.runlock clears Snakemake's stale lock and
 # --rerun-incomplete redoes the jobs that were cut short, so rerunning `make figures` just works.
 SNAKEMAKE_TARGETS ?=
 figures: $(STAMP)
-	$(BIN)/python -m roboball.runlock $(BIN)/snakemake $(SNAKEMAKE_TARGETS) --cores $(CORES) --rerun-incomplete --rerun-triggers mtime input params code
+	$(BIN)/python -m roboball.pipeline.runlock $(BIN)/snakemake $(SNAKEMAKE_TARGETS) --cores $(CORES) --rerun-incomplete --rerun-triggers mtime input params code
 
 # The everyday suite (about 5 minutes on 2 cores); the slow end-to-end tests (whole pipeline,
 # whole campaign regeneration) run in CI after it (.ci/run) or with `make test-slow`.

@@ -172,7 +172,7 @@ def _dense(case: dict):
 
 
 def _write(dense, meta, rng, folder: Path) -> Path:
-    from roboball.recording import write_recording
+    from roboball.ingest.recording import write_recording
     from roboball.testbed.physics import load_truth
     from roboball.testbed.sensors import measure
 

@@ -27,7 +27,7 @@ REAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "roboball_real"
 
 
 def make(folder: Path) -> Path:
-    from roboball.recording import write_recording
+    from roboball.ingest.recording import write_recording
     from roboball.testbed.campaign import _rest_angle, release_recording
     from roboball.testbed.effects import conceal
     from roboball.testbed.physics import load_truth, true_robot

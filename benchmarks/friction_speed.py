@@ -6,7 +6,7 @@ stand log, at least 50 autocorrelation times, under 60 s wall).
 The recording: the virtual test bed's stand (full test-bed physics: LuGre joint friction, which
 no fitted law contains, sensor noise, quantisation, irregular sampling), four hand releases and
 about 50 s long, made once with a fixed seed.  Its releases are found as the pipeline finds them
-(roboball.releases).  Timed: `roboball.identify.friction_fit.fit` with the pipeline's settings
+(roboball.ingest.releases).  Timed: `roboball.identify.friction.fit.fit` with the pipeline's settings
 (32 walkers, autocorr multiple 50, release angles marginalised), i.e. least squares, RK4 step
 choice, emcee to convergence and the summary, in a fresh chain file each run; the median of
 `--repeats` runs is printed with each run's steps, tau and convergence flag.
@@ -27,8 +27,8 @@ import numpy as np
 
 def make(folder: Path, joint: str) -> tuple[Path, Path]:
     from roboball.atomic import write_json_atomic
-    from roboball.recording import normalise, read_recording, write_recording
-    from roboball.releases import require_releases
+    from roboball.ingest.recording import normalise, read_recording, write_recording
+    from roboball.ingest.releases import require_releases
     from roboball.testbed.campaign import _rest_angle, release_recording
     from roboball.testbed.physics import load_truth, true_robot
     from roboball.testbed.sensors import measure
@@ -53,7 +53,7 @@ def main(argv=None) -> int:
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--joint", default="steer", choices=("steer", "drive"))
     args = ap.parse_args(argv)
-    from roboball.identify.friction_fit import fit
+    from roboball.identify.friction.fit import fit
 
     print(f"machine: {platform.machine()}, python {platform.python_version()}, median of {args.repeats}")
     with tempfile.TemporaryDirectory() as tmp:

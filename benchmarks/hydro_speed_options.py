@@ -39,7 +39,7 @@ from conftest import fit_damped  # noqa: E402  (the damped-sine fit the physics 
 
 from pydrake.systems.analysis import Simulator  # noqa: E402
 
-from roboball.pipeline.simulation import pme  # noqa: E402
+from roboball.metrics import pme  # noqa: E402
 from roboball.sim.convergence import ramp_spec, timed_descent  # noqa: E402
 from roboball.sim.plant import ShellParams, SimSpec, build  # noqa: E402
 from roboball.sim.scenarios import set_release, simulate  # noqa: E402

@@ -3,7 +3,7 @@
     .venv/bin/python benchmarks/ramp_release_audit.py [--results results] [--raw raw_data]
 
 Every model of Fig. 13/14 is started at the release instant the pipeline detects in the
-recording (roboball.releases, hinge fit on the drive rate) and scored from it.  The test bed
+recording (roboball.ingest.releases, hinge fit on the drive rate) and scored from it.  The test bed
 knows when it let go (roboball.testbed.campaign.ramp_release_s).  Per ramp run this prints the
 detection error and each model's PME (eq. 12) as the pipeline scored it and as it would be had
 the run started at the true instant.  The second figure shifts the simulated trace by the

@@ -21,7 +21,7 @@ import pandas as pd
 import pytest
 
 from roboball.atomic import savefig_atomic, write_texts_atomic
-from roboball.recording import RecordingError, read_recording, write_recording
+from roboball.ingest.recording import RecordingError, read_recording, write_recording
 
 REPO = Path(__file__).resolve().parents[1]
 SRC = REPO / "src" / "roboball"
@@ -176,7 +176,7 @@ def test_pipeline_figures_go_through_scratch_files_named_tmp(tmp_path, monkeypat
     hidden figure (the kill-and-resume test found `.fig.png.x1y2.png` left by the old saver)."""
     import matplotlib.pyplot as plt
 
-    from roboball.pipeline import plotting
+    from roboball.figures import style as plotting
 
     real_replace, scratch = os.replace, []
     monkeypatch.setattr(os, "replace", lambda src, dst: (scratch.append(Path(src).name), real_replace(src, dst)))

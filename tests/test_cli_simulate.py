@@ -5,7 +5,7 @@ import sys
 import pytest
 
 from conftest import fit_damped
-from roboball.recording import read_recording
+from roboball.ingest.recording import read_recording
 
 ROBOBALL = [sys.executable, "-m", "roboball.cli"]
 

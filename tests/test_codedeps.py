@@ -35,7 +35,7 @@ def test_every_rule_carries_the_fingerprint_of_the_stage_it_runs():
 
 def test_closures_follow_imports_including_those_inside_functions():
     fit = C.closure(C.stage_module("friction-fit"))
-    assert {"roboball.identify.friction_fit", "roboball.reduced", "roboball.physics.friction",
+    assert {"roboball.identify.friction.fit", "roboball.reduced.planar", "roboball.physics.friction",
             "roboball.config", "roboball.identify", "roboball"} <= set(fit)
     assert not any(m.startswith(("roboball.sim", "roboball.diagnose", "roboball.testbed")) for m in fit), fit
     # friction_figs imports the Drake scenarios inside a function (Fig. 7 simulates in Drake)
@@ -48,10 +48,10 @@ def test_closures_follow_imports_including_those_inside_functions():
 def test_editing_a_paper_figure_does_not_touch_the_stages_before_it():
     """The ingest stage draws a QC plot with the shared plotting module, not with the paper
     figures' module: an edit of Fig. 13 must not rerun ingest (and with it every job)."""
-    figures = "roboball.pipeline.figures"
+    figures = "roboball.figures.paper"
     for stage in ("ingest", "decay", "friction-fit", "ramp-sim", "diagnose-recording", "deflating-ramp", "table1"):
         assert figures not in C.closure(C.stage_module(stage)), stage
-    assert "roboball.pipeline.plotting" in C.closure(C.stage_module("ingest"))
+    assert "roboball.figures.style" in C.closure(C.stage_module("ingest"))
     assert figures in C.closure(C.stage_module("fig13-14"))
 
 
@@ -73,7 +73,7 @@ def test_fingerprints_change_with_what_the_stage_runs_and_nothing_else(tmp_path)
     assert {"friction-fit", "ramp-sim", "shell-sim", "fig-stand-fits", "fig5"} <= changed, changed
     assert not changed & {"ingest", "decay", "shell-regression", "uncertainty-report", "fig10"}, changed
 
-    fig = root / "pipeline" / "report.py"
+    fig = root / "report" / "uncertainty.py"
     fig.write_text(fig.read_text() + "\n# an edit of the report\n")
     C.clear_caches()
     again = C.stage_fingerprints(cfg, root)
@@ -85,22 +85,22 @@ def test_fingerprints_change_with_what_the_stage_runs_and_nothing_else(tmp_path)
     assert {"ramp-sim", "friction-fit", "table2", "fig10"} <= refit and "uncertainty-report" not in refit, refit
 
     # every stage: the runner that converts its arguments, and the pinned environment
-    runner = root / "pipeline_cli.py"
+    runner = root / "cli" / "stage.py"
     runner.write_text(runner.read_text() + "\n# an edit of the stage runner\n")
     C.clear_caches()
     run = C.stage_fingerprints(cfg, root)
     assert all(run[s] != facts[s] for s in facts)
-    chain = C.source_fingerprint("roboball.identify.friction_fit", root)
+    chain = C.source_fingerprint("roboball.identify.friction.fit", root)
     # the fingerprinting itself is bookkeeping: the friction fit imports it (for its chains'
     # identity), yet an edit of it reruns nothing and restarts no chain
     book = root / "pipeline" / "codedeps.py"
     book.write_text(book.read_text() + "\n# an edit of the bookkeeping\n")
     C.clear_caches()
     assert C.stage_fingerprints(cfg, root) == run
-    assert C.source_fingerprint("roboball.identify.friction_fit", root) == chain
+    assert C.source_fingerprint("roboball.identify.friction.fit", root) == chain
     (tmp_path / "requirements.lock").write_text("drake==1.51.1\n")
     C.clear_caches()
     locked = C.stage_fingerprints(cfg, root)
     assert all(locked[s] != run[s] for s in run)
-    assert C.source_fingerprint("roboball.identify.friction_fit", root) != chain    # MCMC chains restart too
+    assert C.source_fingerprint("roboball.identify.friction.fit", root) != chain    # MCMC chains restart too
     C.clear_caches()

@@ -12,7 +12,7 @@ from pydrake.multibody.plant import DiscreteContactApproximation
 
 import roboball.sim.plant as plant_mod
 from conftest import fit_damped
-from roboball.pipeline.simulation import pme
+from roboball.metrics import pme
 from roboball.sim.convergence import ramp_spec, timed_descent
 from roboball.sim.plant import (APPROXIMATION, HYDRO_APPROXIMATION, ShellParams, SimSpec, approximation_available,
                                 approximation_for, build)

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from roboball.cli import main as cli_main
+from roboball.cli.main import main as cli_main
 from roboball.diagnose import diagnose
 from roboball.diagnose.decide import Settings
 
@@ -22,7 +22,7 @@ FAST = Settings(max_effects=2)
 
 
 def _stand_recording(folder: Path, effects: dict, viscous_c: float, releases=(-0.8, 0.6), free_s=6.0, seed=1):
-    from roboball.recording import write_recording
+    from roboball.ingest.recording import write_recording
     from roboball.testbed.campaign import _rest_angle, release_recording
     from roboball.testbed.effects import conceal
     from roboball.testbed.physics import load_truth, true_robot
@@ -160,7 +160,7 @@ def test_drake_runs_start_a_release_past_the_steer_stop_at_the_stop_with_a_note(
     the report says so."""
     from roboball.diagnose.data import prepare, read
     from roboball.diagnose.drake import simulate_windows
-    from roboball.diagnose.models import model_for
+    from roboball.reduced.batched import model_for
 
     prep = prepare(read(REPO / "raw_data" / "steer_stand" / "steer_stand_r1.csv"))
     prep.windows = prep.windows[:1]

@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 from roboball.diagnose.drake import effect_term
-from roboball.diagnose.models import model_for
+from roboball.reduced.batched import model_for
 from roboball.physics import effects as fx
-from roboball.pipeline.simulation import pme
+from roboball.metrics import pme
 from roboball.sim.plant import SimSpec
 from roboball.sim.scenarios import simulate
 

@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from roboball.cli import main as cli_main
+from roboball.cli.main import main as cli_main
 from roboball.diagnose import diagnose, read_friction
 from roboball.diagnose.data import pool, prepare, read
 from roboball.diagnose.decide import Selector
@@ -76,7 +76,7 @@ def test_read_friction_gives_exactly_the_five_majd_floats(tmp_path):
     without a law entry, or with a bare number for a parameter, is read like any other; keys other
     than Majd's are left out (the parameters end in diagnosis.json's baseline, which
     D.baseline_friction compares across diagnoses)."""
-    from roboball.identify.results import read_friction
+    from roboball.identify.friction.results import read_friction
 
     def write(name, obj):
         path = tmp_path / name
@@ -100,7 +100,7 @@ def test_read_friction_gives_exactly_the_five_majd_floats(tmp_path):
 def test_read_friction_takes_the_parameters_a_fit_held_fixed(tmp_path):
     """A Majd fit with n held fixed (friction_fit's `fixed`, as the friction figures read it) is
     the law with that n; a sampled value wins over a fixed one of the same name."""
-    from roboball.identify.results import read_friction
+    from roboball.identify.friction.results import read_friction
 
     sampled = {k: {"median": v} for k, v in FITTED["drive"].items() if k != "n"}
     path = tmp_path / "fixed_n.json"
@@ -112,7 +112,7 @@ def test_read_friction_takes_the_parameters_a_fit_held_fixed(tmp_path):
 
 def test_read_joint_friction_keeps_each_file_on_its_joint_and_leaves_out_empty_paths(tmp_path):
     """The pipeline's functions pass "" for a joint without a fit (their default)."""
-    from roboball.identify.results import read_joint_friction
+    from roboball.identify.friction.results import read_joint_friction
 
     steer, drive = tmp_path / "steer.json", tmp_path / "drive.json"
     steer.write_text(json.dumps(FITTED["steer"]))
@@ -195,7 +195,7 @@ def test_the_hidden_pair_is_named_and_a_drag_below_materiality_is_reported_with_
     contract's missing_physics lists only the model's effects), but the report, details.json
     and the pipeline's uncertainty report show it with its interval and why it was refused."""
     from roboball.diagnose.decide import immaterial
-    from roboball.pipeline.report import _immaterial
+    from roboball.report.uncertainty import _immaterial
 
     out = tmp_path / "d"
     d, js = diagnose([RAMP / f"ramp_10.3kpa_r{r}.csv" for r in (1, 2, 3)], out_dir=out, drake=False,

@@ -1,9 +1,9 @@
-"""Fig. 13/14 and the PME table from a ramp summary (roboball.pipeline.figures.fig13_14)."""
+"""Fig. 13/14 and the PME table from a ramp summary (roboball.figures.paper.fig13_14)."""
 import pandas as pd
 import pytest
 
 from roboball.errors import RoboballError
-from roboball.pipeline.figures import fig13_14
+from roboball.figures.paper import fig13_14
 
 
 def _summary(path, shift_draws=0.0):
@@ -59,7 +59,7 @@ def test_posterior_whiskers_need_not_contain_the_bar(tmp_path):
 def test_fig13_names_the_campaign_and_leaves_room_for_its_key(tmp_path, monkeypatch):
     """The titles say where the recordings come from (config `campaign`), and the key line at the
     top of Fig. 13 sits above the tallest bar rather than on it."""
-    import roboball.pipeline.figures as figures
+    import roboball.figures.paper as figures
 
     saved = []
     monkeypatch.setattr(figures, "save", lambda fig, path: saved.append(fig))
@@ -80,7 +80,7 @@ def test_fig13_names_the_campaign_and_leaves_room_for_its_key(tmp_path, monkeypa
 def test_fig14_absolute_panel_says_when_a_model_has_no_error_to_show(tmp_path, monkeypatch):
     """A log axis cannot draw 0 or NaN: such a model is labelled, not dropped, and a summary
     without any finite absolute error still makes both figures and the table."""
-    import roboball.pipeline.figures as figures
+    import roboball.figures.paper as figures
 
     saved = []
     monkeypatch.setattr(figures, "save", lambda fig, path: saved.append(fig))
@@ -100,7 +100,7 @@ def test_fig14_absolute_panel_says_when_a_model_has_no_error_to_show(tmp_path, m
 def test_fig14_mean_labels_sit_above_their_runs_and_whiskers(tmp_path, monkeypatch):
     """Each bar's written mean is anchored above the bar, every run's dot and the posterior
     whisker, so no label covers a dot (the runs spread well above the mean here)."""
-    import roboball.pipeline.figures as figures
+    import roboball.figures.paper as figures
 
     saved = []
     monkeypatch.setattr(figures, "save", lambda fig, path: saved.append(fig))

@@ -1,4 +1,4 @@
-"""Friction identification (roboball.identify.friction_fit): known parameters are recovered from
+"""Friction identification (roboball.identify.friction.fit): known parameters are recovered from
 simulated stand swings, chains resume from HDF5, model comparison prefers the true law, and
 convergence is reported honestly.
 
@@ -11,10 +11,10 @@ import h5py
 import numpy as np
 import pytest
 
-from roboball import reduced as R
+from roboball.reduced import planar as R
 from roboball.config import load_robot
 from roboball.errors import ConfigError, RoboballError
-from roboball.identify import friction_fit as F
+from roboball.identify.friction import fit as F
 
 ROBOT = load_robot()
 MAJD_TRUE = {"f_w": 0.2, "f_c": 0.45, "sigma": 3.0, "omega_c": 0.3, "n": 2.0}

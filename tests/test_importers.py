@@ -10,8 +10,8 @@ import pandas as pd
 import pytest
 
 from conftest import recording_error
-from roboball.importers import detect_format, import_native, read_any
-from roboball.recording import RecordingError, write_recording
+from roboball.ingest.importers import detect_format, import_native, read_any
+from roboball.ingest.recording import RecordingError, write_recording
 
 REAL = Path(os.environ.get("ROBOBALL_REAL_DATA", Path(__file__).resolve().parents[2] / "shared" / "data" / "roboball_real"))
 STEER = REAL / "steering_static_stand_response.csv"

@@ -51,7 +51,7 @@ def test_importing_every_analysis_module_leaves_testbed_unloaded():
                    if "testbed" not in p.parts})
     code = ("import importlib, sys\n"
             f"for m in {mods!r}:\n    importlib.import_module(m)\n"
-            "import roboball.cli as c; c._load_plugins()\n"
+            "import roboball.cli.main as c; c._load_plugins()\n"
             "bad = [m for m in sys.modules if m.startswith('roboball.testbed')]\n"
             "print(bad); sys.exit(1 if bad else 0)\n")
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=REPO)

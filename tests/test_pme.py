@@ -4,7 +4,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from roboball.pipeline.simulation import pme, speed_errors
+from roboball.metrics import pme, speed_errors
 from roboball.sim.forces import InjectedShell
 from roboball.sim.plant import SimSpec
 from roboball.sim.scenarios import simulate
@@ -83,7 +83,7 @@ def test_shell_at_reads_the_regression_table(tmp_path):
 def _ramp_recording(t_exit=None):
     import pandas as pd
 
-    from roboball.recording import Recording
+    from roboball.ingest.recording import Recording
 
     t = np.round(np.arange(0.0, 5.0, 0.01), 10)
     w = np.where(t > 1.0, 2.0 * (t - 1.0), 0.0)
@@ -132,12 +132,12 @@ def test_ramp_sim_posterior_band_is_the_95_percent_range_of_the_draws(tmp_path, 
 
     import pandas as pd
 
-    import roboball.recording
+    import roboball.ingest.recording
     import roboball.sim.scenarios
     from roboball.pipeline import simulation
 
     rec = _ramp_recording(3.5)
-    monkeypatch.setattr(roboball.recording, "read_recording", lambda path, *a, **k: rec)
+    monkeypatch.setattr(roboball.ingest.recording, "read_recording", lambda path, *a, **k: rec)
     draws = []
 
     def fake_simulate(spec, pipe0, duration, sample_rate_hz=200.0):

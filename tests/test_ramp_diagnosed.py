@@ -91,7 +91,7 @@ def test_on_the_ramp_the_injected_shell_is_the_diagnosed_rolling_damping():
 
     from roboball.config import load_robot
     from roboball.diagnose.drake import effect_term, ramp_spec
-    from roboball.diagnose.models import model_for
+    from roboball.reduced.batched import model_for
     from roboball.physics.shell import c_inject
     from roboball.sim.plant import ShellParams, SimSpec
     from roboball.sim.scenarios import simulate
@@ -124,7 +124,7 @@ def test_the_ramp_fit_compares_the_model_averaged_like_the_recording():
 
     from roboball.diagnose.data import RAMP_SMOOTH_S, prepare, read, smooth_after
     from roboball.diagnose.fit import Engine, Problem
-    from roboball.reduced_ramp import RampModel
+    from roboball.reduced.ramp import RampModel
 
     w = prepare(read(REPO / "raw_data" / "ramp" / "ramp_10.3kpa_r1.csv")).windows[0]
     assert w.smooth_s == RAMP_SMOOTH_S

@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 from conftest import recording_error
 from roboball.atomic import atomic_write, csv_text, json_dumps_stable, write_csv_atomic, write_json_atomic
 from roboball.errors import RoboballError
-from roboball.recording import (
+from roboball.ingest.recording import (
     KNOWN_SIGNALS,
     RecordingError,
     normalise,

@@ -1,11 +1,11 @@
-"""Reduced planar models (roboball.reduced): constants from the robot facts, the equations of
+"""Reduced planar models (roboball.reduced.planar): constants from the robot facts, the equations of
 motion, energy bookkeeping, integration accuracy and the batched API."""
 import math
 
 import numpy as np
 import pytest
 
-from roboball import reduced as R
+from roboball.reduced import planar as R
 from roboball.config import load_robot
 from roboball.errors import RoboballError, SimulationError
 from roboball.physics import friction

@@ -1,4 +1,4 @@
-"""The compiled time loop (roboball.reduced_kernel) against the NumPy loop of roboball.reduced.
+"""The compiled time loop (roboball.reduced.kernel) against the NumPy loop of roboball.reduced.planar.
 
 The friction posterior runs on the compiled loop; these tests are what lets it stand in for the
 NumPy loop (which the accuracy tests of test_reduced.py check against a Radau reference).
@@ -8,10 +8,10 @@ swings.  Parameter sets come from the fit's own priors (configs/priors.yaml)."""
 import numpy as np
 import pytest
 
-from roboball import reduced as R
-from roboball import reduced_kernel as K
+from roboball.reduced import planar as R
+from roboball.reduced import kernel as K
 from roboball.config import load_robot
-from roboball.identify.friction_fit import law_priors
+from roboball.identify.friction.fit import law_priors
 from roboball.physics import friction
 from roboball.physics.mathns import scalar
 

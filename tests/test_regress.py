@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 from roboball.errors import RoboballError
-from roboball.regress import fit_omega_linear, fit_regressions, fit_zeta_exp, regression_table
+from roboball.identify.shell.regress import fit_omega_linear, fit_regressions, fit_zeta_exp, regression_table
 
 PRESSURES = np.repeat([6.9, 10.3, 13.8, 17.2, 20.7], 3)  # 3 releases per pressure
 A, B, C, D = 0.30, -0.04, 2.30, 0.06  # zeta_a (1), zeta_b (1/kPa), omega_n_c (rad/s), omega_n_d (rad/s/kPa)

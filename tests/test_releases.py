@@ -12,9 +12,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from roboball.errors import RoboballError
-from roboball.importers import read_any
-from roboball.recording import Recording
-from roboball.releases import (
+from roboball.ingest.importers import read_any
+from roboball.ingest.recording import Recording
+from roboball.ingest.releases import (
     find_releases,
     free_response,
     recording_releases,
@@ -259,7 +259,7 @@ def test_release_json_round_trip():
     import json
 
     from roboball.atomic import json_dumps_stable
-    from roboball.releases import Release
+    from roboball.ingest.releases import Release
 
     t = np.arange(0, 5, 0.01)
     (r,) = find_releases(t, np.where(t > 1, 2 * (t - 1), 0.0), "ramp")
@@ -398,7 +398,7 @@ def test_a_body_at_rest_stepping_by_a_few_mrad_makes_no_hold_inside_a_swing(nois
     than the noise (4 hysteresis steps): a body stuck off rest whose quantised reading steps
     down by 4 mrad, rests, and steps again (as the real steer-stand log does after its swings
     stop) makes none."""
-    from roboball.releases import _holds_inside_swings, prepare_signal, zigzag
+    from roboball.ingest.releases import _holds_inside_swings, prepare_signal, zigzag
     rng = np.random.default_rng(seed)
     t = np.arange(0.0, 4.0, 0.0125)
     y = np.interp(t, [0, 1.0, 1.1, 1.5, 1.6, 2.5, 2.6, 4.0],

@@ -13,9 +13,9 @@ pressure regressions and a simulation, i.e. CSV, JSON and PNG outputs of every k
   half-written output that a rerun would take as finished.  Runs go through the repository's
   `make figures` (on the reduced targets), so the Makefile itself must recover from the kill:
   Snakemake refuses to start over a stale directory lock or past incomplete outputs unless
-  told what to do (roboball.runlock and --rerun-incomplete).
+  told what to do (roboball.pipeline.runlock and --rerun-incomplete).
 * Determinism: two clean runs give byte-identical CSV and JSON outputs (and, with matplotlib's
-  metadata stripped by roboball.pipeline.figures.save, identical PNGs).
+  metadata stripped by roboball.figures.paper.save, identical PNGs).
 """
 from __future__ import annotations
 

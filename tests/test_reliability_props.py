@@ -18,11 +18,11 @@ import pandas as pd
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from roboball.decay import decay_table
+from roboball.identify.shell.decay import decay_table
 from roboball.errors import RoboballError
-from roboball.importers import read_any
-from roboball.recording import Recording, normalise, write_recording
-from roboball.releases import synthetic_release_log
+from roboball.ingest.importers import read_any
+from roboball.ingest.recording import Recording, normalise, write_recording
+from roboball.ingest.releases import synthetic_release_log
 
 MAIN = {"steer_stand": "steer_angle_rad", "drive_stand": "drive_angle_rad", "shell_rock": "pipe_angle_rad"}
 

@@ -7,7 +7,7 @@ import sys
 import pandas as pd
 import pytest
 
-from roboball.cli import main
+from roboball.cli.main import main
 
 
 def _fit(path, joint, law, params, converged=True):
@@ -105,7 +105,7 @@ def test_bad_fit_json_is_one_line_error_naming_file_and_field(results, capsys):
 
 def test_report_reruns_nothing(results):
     """Rendering must not even load Drake (so no simulation can run) and must be quick."""
-    code = ("import sys; from roboball.pipeline.params_report import render; "
+    code = ("import sys; from roboball.report.params import render; "
             f"md = render({str(results / 'results')!r}, {str(results / 'pf')!r}); "
             "assert 'pydrake' not in sys.modules and 'emcee' not in sys.modules, sorted(sys.modules)")
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from roboball.config import load_robot
-from roboball.urdf import make_urdf
+from roboball.sim.urdf import make_urdf
 
 ROBOT = load_robot()
 DRAKE_NS = "{http://drake.mit.edu}"

@@ -1,4 +1,4 @@
-"""roboball.runlock: `make figures` clears a stale Snakemake lock only when no other run is alive.
+"""roboball.pipeline.runlock: `make figures` clears a stale Snakemake lock only when no other run is alive.
 
 The proof of "no other run" is a kernel flock, held by the exec'd Snakemake for its lifetime and
 released by the kernel however the process dies (here: SIGKILL)."""
@@ -11,9 +11,9 @@ import sys
 import time
 from pathlib import Path
 
-from roboball import runlock
+from roboball.pipeline import runlock
 
-RUNLOCK = [sys.executable, "-m", "roboball.runlock"]
+RUNLOCK = [sys.executable, "-m", "roboball.pipeline.runlock"]
 
 
 def stale_locks(workdir: Path) -> list[Path]:

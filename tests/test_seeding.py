@@ -78,7 +78,7 @@ def _rule_blocks() -> dict[str, str]:
 
 
 def test_every_seeded_stage_gets_its_seed_from_the_config():
-    from roboball.pipeline_cli import _stages
+    from roboball.cli.stage import _stages
 
     stages = _stages()
     seeded = {name for name, fn in stages.items() if "seed" in inspect.signature(fn).parameters}

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from pydrake.math import RollPitchYaw, RotationMatrix
 
-from roboball.decay import extract_decay
-from roboball.releases import Release
+from roboball.identify.shell.decay import extract_decay
+from roboball.ingest.releases import Release
 from roboball.sim.forces import Kin
 from roboball.sim.plant import ShellParams, SimSpec, build
 from roboball.sim.scenarios import simulate

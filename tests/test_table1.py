@@ -1,4 +1,4 @@
-"""Table I (roboball.pipeline.friction_figs.table1): parameters next to the paper's values, with
+"""Table I (roboball.figures.friction.table1): parameters next to the paper's values, with
 units, and the state of each posterior chain, so an unconverged chain cannot pass unnoticed."""
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import json
 
 import pandas as pd
 
-from roboball.pipeline.friction_figs import table1
+from roboball.figures.friction import table1
 
 
 def _fit(path, law, converged, tau):

@@ -87,8 +87,8 @@ def test_regenerating_the_whole_campaign_reproduces_the_manifest(tmp_path):
 def test_testbed_shell_logs_look_like_the_papers_fig10(robot):
     """Decay from the test bed's shell logs: zeta falls with pressure, omega_n sits above eq. 5,
     and the damping is amplitude-dependent (first cycles damp more than the last)."""
-    from roboball.decay import decay_table
-    from roboball.recording import normalise, read_recording
+    from roboball.identify.shell.decay import decay_table
+    from roboball.ingest.recording import normalise, read_recording
 
     man = pd.read_csv(RAW / "MANIFEST.csv")
     rows = []

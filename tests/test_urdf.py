@@ -12,7 +12,7 @@ import pytest
 import yaml
 
 from roboball.config import ROBOT_YAML, load_robot
-from roboball.urdf import ShellTags, make_urdf
+from roboball.sim.urdf import ShellTags, make_urdf
 
 ROBOBALL = str(Path(sys.executable).parent / "roboball")
 

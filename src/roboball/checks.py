@@ -23,8 +23,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .config import SCHEMA_DIR, RobotFacts, load_yaml
-from .errors import ConfigError
+from roboball.config import SCHEMA_DIR, RobotFacts, load_yaml
+from roboball.errors import ConfigError
 
 __all__ = ["check_robot", "check_priors", "check_config_dir", "load_checked_robot", "read_manifest"]
 
@@ -63,7 +63,7 @@ def check_priors(data: dict, source: str) -> dict:
     """Cross-field checks of the friction priors (the schema checks each value): every law lists
     exactly the parameters it fits, ``low < high``, and ``start`` (and a lognormal's median)
     lies inside the bounds.  Returns `data`."""
-    from .physics.friction import PARAMS
+    from roboball.physics.friction import PARAMS
 
     for joint, laws in data.items():
         for law, params in laws.items():
@@ -140,7 +140,7 @@ def read_manifest(raw_dir: str | Path) -> dict[str, dict]:
     import math
     import os
 
-    from .recording import KINDS, MAX_PRESSURE_KPA
+    from roboball.ingest.recording import KINDS, MAX_PRESSURE_KPA
 
     raw_text = os.fspath(raw_dir)      # paths are joined as given (they end up in the results)
     raw_dir = Path(raw_dir)

@@ -12,7 +12,7 @@ rule ingest:
         sidecar="results/ingest/{stem}.json",
         releases="results/ingest/{stem}.releases.json",
         qc=report("results/qc/{stem}.png", category="1 Ingest", caption="../report/qc.rst"),
-        qc_pdf="results/qc/{stem}.pdf",           # written beside the PNG (roboball.pipeline.plotting.save)
+        qc_pdf="results/qc/{stem}.pdf",           # written beside the PNG (roboball.figures.style.save)
     params:
         code=CODE["ingest"],
         kind=lambda w: REC[w.stem]["kind"],

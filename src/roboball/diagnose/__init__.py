@@ -5,7 +5,7 @@ the baseline leaves out, model it, and show the fit improve (issue 6; contract
     from roboball.diagnose import diagnose
     d, js = diagnose("raw_data/steer_stand/steer_stand_r1.csv", out_dir="results/diagnose/steer")
 
-Modules: data (fit windows of the releases), models and roboball.reduced_ramp (fast batched
+Modules: data (fit windows of the releases), models and roboball.reduced.ramp (fast batched
 reduced models), fit (batched Levenberg-Marquardt by simulation error), decide (greedy forward
 selection with held-out validation and BIC), locate (residual by time window and regime),
 drake (the augmented model as a Drake force element), report (diagnosis.json, report.md,
@@ -13,12 +13,12 @@ figures), cli (`roboball diagnose`).  The effect library itself is roboball.phys
 """
 from __future__ import annotations
 
-from ..identify.results import read_friction, read_joint_friction  # noqa: F401  (the CLI's and the pipeline's reader)
+from roboball.identify.friction.results import read_friction, read_joint_friction  # noqa: F401  (the CLI's and the pipeline's reader)
 
 
 def diagnose(recording, out_dir=None, kind: str | None = None, pressure_kpa: float | None = None,
              settings=None, drake: bool = True, log=None, friction: dict | None = None):
-    """Diagnose one recording (a path, or a roboball.recording.Recording), or several recordings
+    """Diagnose one recording (a path, or a roboball.ingest.recording.Recording), or several recordings
     of one experiment together (a list: same kind, pressure and ramp angle; every release of
     each is a release of the pooled fit, and held-out validation leaves one release out:
     roboball.diagnose.data.pool).
@@ -30,10 +30,10 @@ def diagnose(recording, out_dir=None, kind: str | None = None, pressure_kpa: flo
     Returns (Diagnosis, diagnosis.json content).  With `out_dir`, writes diagnosis.json,
     report.md, details.json and the figures there (the Drake simulations of the baseline and
     augmented model run only then, or when `drake` is forced with an out_dir)."""
-    from ..recording import Recording
-    from .data import pool, prepare, read
-    from .decide import diagnose_prepared
-    from .models import model_for
+    from roboball.ingest.recording import Recording
+    from roboball.diagnose.data import pool, prepare, read
+    from roboball.diagnose.decide import diagnose_prepared
+    from roboball.reduced.batched import model_for
 
     items = list(recording) if isinstance(recording, (list, tuple)) else [recording]
     if not items:
@@ -47,12 +47,12 @@ def diagnose(recording, out_dir=None, kind: str | None = None, pressure_kpa: flo
         model = model_for("ramp", ramp_angle_deg=prep.recording.ramp_angle_deg, friction=friction)
     d = diagnose_prepared(prep, settings=settings, log=log, model=model)
     if out_dir is None:
-        from .locate import classify, locate
-        from .report import diagnosis_json
+        from roboball.diagnose.locate import classify, locate
+        from roboball.diagnose.report import diagnosis_json
         labels = classify(d.prep)
         js = diagnosis_json(d, locate(d.prep, d.baseline.full.pred, labels))
         return d, js
-    from .report import write
+    from roboball.diagnose.report import write
     return d, write(d, out_dir, drake=drake)
 
 

@@ -2,7 +2,7 @@
 
 A recording holds hand-held phases (move, hold, let go) that no model can simulate, and free
 responses after each release that the baseline must explain.  `prepare` finds the releases
-(roboball.releases) and cuts one fit window per release:
+(roboball.ingest.releases) and cuts one fit window per release:
 
 * start: at the first turning point of the free swing after the release (see below), or,
   when too few swings follow to spare one, 0.05 s before the release instant found by the
@@ -40,7 +40,7 @@ strong dry friction after one overshoot keeps its release start).
 
 The noise level (sensor noise and quantisation) comes from the release finder's estimate.
 Undamped records (the shell baseline has no dissipation at all) have holds but no decaying
-oscillation, which roboball.releases does not accept; `_hold_releases` then takes the ends of
+oscillation, which roboball.ingest.releases does not accept; `_hold_releases` then takes the ends of
 the holds as releases.
 """
 from __future__ import annotations
@@ -52,9 +52,9 @@ from pathlib import Path
 import numpy as np
 from scipy.ndimage import maximum_filter1d, minimum_filter1d
 
-from ..errors import RoboballError
-from ..recording import Recording, normalise
-from ..releases import Release, prepare_signal, require_releases, zigzag
+from roboball.errors import RoboballError
+from roboball.ingest.recording import Recording, normalise
+from roboball.ingest.releases import Release, prepare_signal, require_releases, zigzag
 
 PRE_S = 0.05
 RAMP_SMOOTH_S = 0.1
@@ -249,7 +249,7 @@ def _first_turning_point(t, y, rel: Release, t_end: float) -> tuple[float, float
 def _hold_releases(t, y, kind: str) -> list:
     """Fallback release finder: the ends of hand holds away from rest.
 
-    roboball.releases accepts a release only when a DECAYING oscillation follows; a recording
+    roboball.ingest.releases accepts a release only when a DECAYING oscillation follows; a recording
     of an undamped body (a shell with no dissipation, exactly what the shell baseline is)
     has holds but no decay.  Here a release is the end of a stretch of at least 0.4 s in which
     the smoothed speed stays below 5% of the record's peak speed (and five noise levels),
@@ -424,7 +424,7 @@ def pool(preps: list) -> Prepared:
 
 def read(path, kind: str | None = None, pressure_kpa: float | None = None) -> Recording:
     """Read a recording (or one of the authors' native logs) with the shared validation."""
-    from ..importers import read_any
+    from roboball.ingest.importers import read_any
     path = Path(path)
     if not path.exists():
         raise RoboballError(f"{path}: file not found")

@@ -50,10 +50,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..physics import effects as fx
-from .data import Prepared
-from .fit import Engine, Problem, effect_keys
-from .models import DT, ReducedModel, model_for
+from roboball.physics import effects as fx
+from roboball.diagnose.data import Prepared
+from roboball.diagnose.fit import Engine, Problem, effect_keys
+from roboball.reduced.batched import DT, ReducedModel, model_for
+from roboball.metrics import bic, lag1, n_eff
 
 
 @dataclass
@@ -135,25 +136,6 @@ def immaterial(steps: list) -> list:
 
 def residuals(prep: Prepared, pred: dict) -> dict:
     return {w.index: pred[w.index] - w.y for w in prep.windows if w.index in pred}
-
-
-def lag1(prep: Prepared, res: dict) -> float:
-    """Lag-1 autocorrelation of the residual, pooled within releases."""
-    num = den = 0.0
-    for r in res.values():
-        r = r - np.mean(r)
-        num += float(np.sum(r[1:] * r[:-1]))
-        den += float(np.sum(r * r))
-    return num / den if den > 0 else 0.0
-
-
-def n_eff(n: int, rho: float) -> float:
-    rho = min(max(rho, 0.0), 0.995)
-    return max(n * (1.0 - rho) / (1.0 + rho), 10.0)
-
-
-def bic(rss: float, n: int, k: int, neff: float) -> float:
-    return neff * math.log(max(rss, 1e-300) / n) + k * math.log(neff)
 
 
 class Selector:
@@ -251,7 +233,7 @@ class Selector:
             sc.cv_rmse = math.sqrt(sum(sq) / max(n, 1))
 
     def score(self, sc: Scored, reference: Scored | None = None) -> None:
-        sc.rho1 = lag1(self.prep, residuals(self.prep, sc.full.pred))
+        sc.rho1 = lag1(residuals(self.prep, sc.full.pred))
         n = sc.full.n
         sc.bic = bic(sc.full.rss, n, sc.full.k, n)
         if reference is not None:

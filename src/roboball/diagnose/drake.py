@@ -24,12 +24,12 @@ import math
 
 import numpy as np
 
-from ..physics import effects as fx
-from ..sim.forces import SYM, GeneralizedTerm, Kin
-from ..sim.plant import SimSpec, build
-from ..sim.scenarios import simulate
-from .data import Prepared
-from .models import ReducedModel
+from roboball.physics import effects as fx
+from roboball.sim.forces import SYM, GeneralizedTerm, Kin
+from roboball.sim.plant import SimSpec, build
+from roboball.sim.scenarios import simulate
+from roboball.diagnose.data import Prepared
+from roboball.reduced.batched import ReducedModel
 
 DRAKE_DT = {"steer_stand": 5e-4, "drive_stand": 5e-4, "shell_rock": 1e-3, "ramp": 1e-3}
 

@@ -32,7 +32,7 @@ import numpy as np
 from scipy.ndimage import maximum_filter1d
 from scipy.signal import savgol_filter
 
-from .data import Prepared
+from roboball.diagnose.data import Prepared
 
 REGIMES = ("high_speed", "low_speed", "reversal", "large_amplitude", "small_amplitude", "near_stop",
            "rest_offset", "late_decay", "release", "ramp_exit")

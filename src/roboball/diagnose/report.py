@@ -15,12 +15,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..atomic import output_folder, savefig_atomic, write_csv_atomic, write_json_atomic, write_text_atomic
-from ..physics import effects as fx
-from .decide import Diagnosis
-from .drake import rmse as drake_rmse
-from .drake import simulate_windows
-from .locate import classify, locate
+from roboball.atomic import output_folder, savefig_atomic, write_csv_atomic, write_json_atomic, write_text_atomic
+from roboball.physics import effects as fx
+from roboball.diagnose.decide import Diagnosis
+from roboball.diagnose.drake import rmse as drake_rmse
+from roboball.diagnose.drake import simulate_windows
+from roboball.diagnose.locate import classify, locate
 
 
 def _round(x, n=6):
@@ -123,7 +123,7 @@ def _figures(d: Diagnosis, out: Path, drake_base, drake_aug, located_base, locat
     wins = prep.windows
     n = len(wins)
     # layout="none", then tight_layout: these figures look the same whatever layout an importer
-    # of matplotlib made the default (roboball.pipeline.plotting makes it constrained)
+    # of matplotlib made the default (roboball.figures.style makes it constrained)
     fig, axes = plt.subplots(2, n, figsize=(5.2 * n, 6.4), squeeze=False, sharex="col", layout="none",
                              gridspec_kw={"height_ratios": [2, 1.3]})
     for j, w in enumerate(wins):

@@ -1,5 +1,6 @@
 """System identification from the stand and shell recordings.
 
-* :mod:`roboball.identify.friction_fit`: joint-friction laws on the stand logs, least squares
-  then emcee posteriors (resumable HDF5 chains), model comparison.
+* :mod:`roboball.identify.shell`: decay of each shell release and the pressure regressions.
+* :mod:`roboball.identify.friction`: joint-friction laws on the stand logs, least squares then
+  emcee posteriors (resumable HDF5 chains), model comparison.
 """

@@ -4,4 +4,4 @@ Every law takes a math namespace `m` (default: NumPy) so the same function body 
 evaluated on NumPy arrays by the fast reduced models and on Drake symbolic expressions
 when the Drake diagram is built (see roboball.sim.forces).  Nothing here imports Drake.
 """
-from .mathns import NP  # noqa: F401
+from roboball.physics.mathns import NP  # noqa: F401

@@ -47,7 +47,7 @@ from typing import Callable
 
 import numpy as np
 
-from .mathns import NP
+from roboball.physics.mathns import NP
 
 V_EPS = 1e-3          # rad/s: regularisation of sign(qd) for dry-friction-like laws
 V_STRIBECK = 2 * V_EPS   # rad/s: width of the stiction (Stribeck) hump: the creep band

@@ -18,7 +18,7 @@ Notes on the paper's equations
 """
 from __future__ import annotations
 
-from .mathns import NP
+from roboball.physics.mathns import NP
 
 LAWS = ("none", "viscous", "coulomb_viscous", "majd")
 

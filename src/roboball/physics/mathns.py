@@ -29,7 +29,7 @@ def scalar():
     """The namespace for compiled scalar code (Numba): the same names, on one float at a time.
 
     A law function passed through ``numba.njit`` with ``m=scalar()`` compiles to machine code with
-    no Python per call; this is how :mod:`roboball.reduced_kernel` runs the very law functions of
+    no Python per call; this is how :mod:`roboball.reduced.kernel` runs the very law functions of
     :mod:`roboball.physics.friction` inside its compiled time loop.  Built on first use (importing
     Numba takes a second); ``where`` is the scalar select, ``sign`` is 0 at 0 like ``np.sign``.
     """

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 
-from .mathns import NP
+from roboball.physics.mathns import NP
 
 
 # ---- regressions over pressure (Fig. 10) ----------------------------------------------

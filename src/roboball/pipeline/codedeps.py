@@ -1,6 +1,6 @@
 """What a pipeline stage's result depends on besides its data: the package's source files it
 runs (its module and every roboball module that module imports, directly or inside a function,
-transitively, and the stage runner roboball.pipeline_cli), when those read the robot facts
+transitively, and the stage runner roboball.cli.stage), when those read the robot facts
 `configs/robot.yaml`, and the pinned environment `requirements.lock`.
 
 The Snakemake rules put `stage_fingerprint(stage)` in their params, so an edit of a friction law
@@ -18,14 +18,14 @@ from pathlib import Path
 
 PACKAGE_ROOT = Path(__file__).resolve().parents[1]        # .../src/roboball
 PACKAGE = "roboball"
-# The stage modules, in the order `roboball stage` searches them (roboball.pipeline_cli).
-STAGE_MODULES = ("roboball.pipeline.ident", "roboball.pipeline.simulation", "roboball.pipeline.figures",
-                 "roboball.pipeline.friction_figs", "roboball.pipeline.report", "roboball.pipeline.friction",
+# The stage modules, in the order `roboball stage` searches them (roboball.cli.stage).
+STAGE_MODULES = ("roboball.pipeline.ident", "roboball.pipeline.simulation", "roboball.figures.paper",
+                 "roboball.figures.friction", "roboball.report.uncertainty", "roboball.pipeline.friction",
                  "roboball.pipeline.deflating", "roboball.pipeline.diagnosis")
 ROBOT_FACTS_READER = "roboball.config"
 # Run by every stage besides its own closure: the runner that turns `roboball stage NAME --arg`
 # into the call (only its own file: its imports are the CLI's, not the stage's).
-STAGE_RUNNER = "roboball.pipeline_cli"
+STAGE_RUNNER = "roboball.cli.stage"
 # The pinned environment (drake, numpy, emcee, ...): an upgrade can change any number.
 LOCK_FILE = "requirements.lock"
 # Bookkeeping that computes fingerprints and changes no result: importing it (the friction fit

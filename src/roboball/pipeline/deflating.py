@@ -11,8 +11,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from ..atomic import write_csv_atomic
-from ..errors import RoboballError
+from roboball.atomic import write_csv_atomic
+from roboball.errors import RoboballError
 
 STAGES = ("deflating_ramp",)
 
@@ -22,8 +22,8 @@ def run_cases(laws, schedule, contacts=("injected", "hydroelastic"), duration: f
               friction_params: dict | None = None, hydro_update_s: float = 0.05) -> pd.DataFrame:
     """Ramp descents at the schedule's first and last pressure and following it, per contact
     model; long table: contact, case, time_s, pressure_kpa, drive_rate_rad_s."""
-    from ..sim.plant import ShellParams, SimSpec
-    from ..sim.pressure import PressureSchedule, simulate_schedule
+    from roboball.sim.plant import ShellParams, SimSpec
+    from roboball.sim.pressure import PressureSchedule, simulate_schedule
 
     p_start, p_end = schedule.pressures_kpa[0], schedule.pressures_kpa[-1]
     cases = [(f"constant {p_start:g} kPa", PressureSchedule.constant(p_start)),
@@ -47,7 +47,7 @@ def run_cases(laws, schedule, contacts=("injected", "hydroelastic"), duration: f
 
 def plot(table: pd.DataFrame, schedule, out_png: str) -> None:
     """Fig. S1: pressure (top) and drive rate (bottom) of every case; PNG + PDF."""
-    from .plotting import CONTACT_COLOURS, plt, save
+    from roboball.figures.style import CONTACT_COLOURS, plt, save
 
     styles = {"schedule": "-"}
     cases = list(dict.fromkeys(table.case))
@@ -84,8 +84,8 @@ def deflating_ramp(regression: str, out_png: str, out_csv: str = "", schedule_cs
     """Fig. S1 (PNG + PDF) and its traces (CSV): ramp descents at constant start and end
     pressure and while deflating (the schedule CSV, else the time/pressure lists, else linearly
     from p_start to p_end over the run)."""
-    from ..sim.pressure import PressureSchedule, ShellLaws
-    from ..identify.results import read_joint_friction
+    from roboball.sim.pressure import PressureSchedule, ShellLaws
+    from roboball.identify.friction.results import read_joint_friction
 
     laws = ShellLaws.from_regression_csv(regression)
     if schedule_csv:

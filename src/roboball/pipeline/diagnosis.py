@@ -18,9 +18,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..atomic import write_csv_atomic
-from ..errors import RoboballError
-from .simulation import ramp_window, speed_errors
+from roboball.atomic import write_csv_atomic
+from roboball.errors import RoboballError
+from roboball.metrics import speed_errors
+from roboball.pipeline.simulation import ramp_window
 
 STAGES = ("diagnose_recording", "ramp_diagnosed")
 
@@ -30,8 +31,8 @@ def diagnose_recording(recording: list, out_dir: str, friction_steer: str = "", 
     one experiment together: diagnosis.json, report.md, predictions.csv and the figures in
     `out_dir`.  With fitted friction (the pipeline's Majd fits) the ramp baseline is the paper's
     point model as the pipeline calibrates it, instead of the contract's Table I friction."""
-    from ..diagnose import diagnose
-    from ..identify.results import read_joint_friction
+    from roboball.diagnose import diagnose
+    from roboball.identify.friction.results import read_joint_friction
 
     diagnose(recording, out_dir=out_dir, friction=read_joint_friction(friction_steer, friction_drive) or None)
 
@@ -80,10 +81,10 @@ def ramp_diagnosed(recording: str, releases: str, diagnoses: list, out_csv: str,
                    dt: float = 0.001) -> None:
     """Ramp descent of one recorded run with the diagnosed model (effects from `diagnoses`, the
     other runs' diagnosis.json files), scored by PME like the paper's contact models."""
-    from ..diagnose.drake import effect_term, ramp_spec
-    from ..diagnose.models import model_for
-    from ..recording import read_recording
-    from ..sim.scenarios import simulate
+    from roboball.diagnose.drake import effect_term, ramp_spec
+    from roboball.reduced.batched import model_for
+    from roboball.ingest.recording import read_recording
+    from roboball.sim.scenarios import simulate
 
     if not diagnoses:
         raise RoboballError(f"{recording}: no diagnoses of other runs to take the diagnosed effects from")

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import json
 
-from ..atomic import write_csv_atomic, write_json_atomic
+from roboball.atomic import write_csv_atomic, write_json_atomic
 
 STAGES = ("friction_fit", "friction_comparison")
 
@@ -15,7 +15,7 @@ def friction_fit(recording: str, releases: str, joint: str, law: str, prior_json
     resumable cache: an interrupted run continues it; a chain of another fit (data, prior,
     robot facts, settings or the code changed, which is why Snakemake reruns the rule) is
     sampled afresh."""
-    from ..identify.friction_fit import fit
+    from roboball.identify.friction.fit import fit
 
     res, samples = fit(recording, releases, joint, law, json.loads(prior_json), chain, walkers=walkers,
                        autocorr_multiple=autocorr_multiple, max_steps=max_steps, seed=seed, stale="restart")
@@ -26,6 +26,6 @@ def friction_fit(recording: str, releases: str, joint: str, law: str, prior_json
 
 def friction_comparison(fits: list, out_csv: str) -> None:
     """Residual, log-likelihood and BIC of each law fitted to the same recording."""
-    from ..identify.friction_fit import comparison
+    from roboball.identify.friction.fit import comparison
 
     write_csv_atomic(comparison(fits), out_csv)

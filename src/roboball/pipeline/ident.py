@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..atomic import write_csv_atomic, write_json_atomic
-from ..errors import RoboballError
+from roboball.atomic import write_csv_atomic, write_json_atomic
+from roboball.errors import RoboballError
 
 STAGES = ("ingest", "decay", "shell_regression")
 
@@ -27,8 +27,8 @@ def _float_or_none(x):
 def ingest(src: str, out_csv: str, out_releases: str, qc_png: str, kind: str = "", pressure_kpa: str = "") -> None:
     """Validate and normalise one recording (native formats imported), find its releases,
     write the normalised recording, a releases JSON and a QC plot."""
-    from ..importers import read_any
-    from ..recording import normalise, write_recording
+    from roboball.ingest.importers import read_any
+    from roboball.ingest.recording import normalise, write_recording
 
     flags = {}
     if kind:
@@ -38,18 +38,18 @@ def ingest(src: str, out_csv: str, out_releases: str, qc_png: str, kind: str = "
         flags["pressure_kpa"] = pressure
     rec = normalise(read_any(src, **flags))
     # Imported only once the file is known to be good, so bad input fails fast (scipy is slow to load).
-    from ..releases import require_releases
+    from roboball.ingest.releases import require_releases
 
     rels = require_releases(rec)
     write_recording(out_csv, rec)
     write_json_atomic(out_releases, {"source": str(src), "kind": rec.kind, "pressure_kpa": rec.pressure_kpa,
                                      "signal": rec.main_signal(), "releases": [r.as_dict() for r in rels]})
-    from .plotting import qc_plot
+    from roboball.figures.style import qc_plot
     qc_plot(rec, rels, qc_png)
 
 
 def _releases(path):
-    from ..releases import Release
+    from roboball.ingest.releases import Release
     with open(path, encoding="utf-8") as fh:
         data = json.load(fh)
     return [Release(**r) for r in data["releases"]]
@@ -57,8 +57,8 @@ def _releases(path):
 
 def decay(recording: str, releases: str, out_csv: str) -> None:
     """Damping ratio and frequency of every release (damped-sine fit, log-decrement check)."""
-    from ..decay import decay_table
-    from ..recording import read_recording
+    from roboball.identify.shell.decay import decay_table
+    from roboball.ingest.recording import read_recording
 
     rec = read_recording(recording)
     table = decay_table(rec, _releases(releases))
@@ -68,7 +68,7 @@ def decay(recording: str, releases: str, out_csv: str) -> None:
 
 def shell_regression(decay_csvs: list, out_points: str, out_table: str) -> None:
     """zeta(p) = a exp(b p) and omega_n(p) = c + d p over all shell releases, with 95% CIs."""
-    from ..regress import regression_table
+    from roboball.identify.shell.regress import regression_table
 
     pts = pd.concat([pd.read_csv(p) for p in sorted(decay_csvs)], ignore_index=True)
     pts = pts[np.isfinite(pts.pressure_kpa)]

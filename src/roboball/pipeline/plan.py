@@ -12,7 +12,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass, field
 
-from ..errors import ConfigError
+from roboball.errors import ConfigError
 
 # The real logs' stems in the results (the authors' recordings, config section real_data).
 REAL_STEMS = {"steer_stand": "real_steer_stand", "shell_rock": "real_shell_rock"}
@@ -37,7 +37,7 @@ class Campaign:
         """The campaign of the workflow's config: the manifest of `raw_data` (checked by
         roboball.checks.read_manifest) and the real logs of `real_data`.  `enabled: auto` takes
         them when their folder exists; `enabled: true` requires it (a one-line ConfigError)."""
-        from ..checks import read_manifest
+        from roboball.checks import read_manifest
 
         recordings = read_manifest(config["raw_data"])
         real = config["real_data"]

@@ -9,10 +9,11 @@ import zlib
 import numpy as np
 import pandas as pd
 
-from ..atomic import write_csv_atomic, write_json_atomic
-from ..config import load_robot
-from ..errors import RoboballError
-from ..physics import shell as shell_laws
+from roboball.atomic import write_csv_atomic, write_json_atomic
+from roboball.config import load_robot
+from roboball.errors import RoboballError
+from roboball.metrics import pme, speed_errors
+from roboball.physics import shell as shell_laws
 
 STAGES = ("shell_sim", "ramp_sim", "summarise", "replay")
 
@@ -35,10 +36,10 @@ def shell_sim(releases: str, regression: str, contact: str, out_csv: str, modulu
               dissipation_scale: float = 1.0, duration: float = 9.0, dt: float = 0.001) -> None:
     """Release the locked-steer Drake model like each recorded release; extract its decay with
     the same code as the data.  One row per release."""
-    from ..decay import extract_decay
-    from ..releases import Release
-    from ..sim.plant import ShellParams, SimSpec
-    from ..sim.scenarios import simulate
+    from roboball.identify.shell.decay import extract_decay
+    from roboball.ingest.releases import Release
+    from roboball.sim.plant import ShellParams, SimSpec
+    from roboball.sim.scenarios import simulate
 
     info = _releases(releases)
     p = info["pressure_kpa"]
@@ -69,50 +70,8 @@ def shell_sim(releases: str, regression: str, contact: str, out_csv: str, modulu
 
 
 # ---- ramp descents -------------------------------------------------------------------------
-SPEED_FLOOR_RAD_S = 0.5
-
-
-def _relative_errors(w_measured, w_sim, floor: float) -> np.ndarray:
-    """Eq. 12's samples, (w_s - w_e) / w_e, at the samples whose measured speed reaches `floor`
-    (the first instants after release, where w_e ~ 0 and the ratio is undefined, are left out)."""
-    w_e = np.asarray(w_measured, float)
-    w_s = np.asarray(w_sim, float)
-    ok = np.abs(w_e) >= floor
-    return (w_s[ok] - w_e[ok]) / w_e[ok]
-
-
-def pme(w_measured, w_sim, floor: float = SPEED_FLOOR_RAD_S) -> float:
-    """Point mean error (eq. 12) in percent, over-predicting models positive.
-
-    The paper's text says "simulated subtracted from measured, such that overestimated models
-    are positive"; the two halves disagree in sign, and we keep the stated intent (and the
-    issue's): a simulation faster than the robot gives a positive PME:
-        PME = 100/N sum (w_s - w_e) / w_e.
-    Samples where the measured speed is below `floor` (the first instants after release,
-    where w_e ~ 0) are left out, since the ratio is undefined there."""
-    rel = _relative_errors(w_measured, w_sim, floor)
-    return float(100.0 * np.mean(rel)) if rel.size else float("nan")
-
-
-def speed_errors(w_measured, w_sim, floor: float = SPEED_FLOOR_RAD_S) -> dict:
-    """Eq. 12's PME and two errors that cannot cancel, for one descent:
-    * `pme_percent`: eq. 12, the signed mean (`pme`);
-    * `mape_percent`: the mean ABSOLUTE point error, 100/N sum |w_s - w_e| / |w_e| over the same
-      samples.  Eq. 12 lets a model that runs fast early and slow late score near zero; this
-      one does not;
-    * `rmse_rad_s`: the RMS of w_s - w_e over the whole scored window (no floor), the quantity
-      the diagnosis fits."""
-    rel = _relative_errors(w_measured, w_sim, floor)
-    w_e = np.asarray(w_measured, float)
-    w_s = np.asarray(w_sim, float)
-    nan = float("nan")
-    return {"pme_percent": float(100.0 * np.mean(rel)) if rel.size else nan,
-            "mape_percent": float(100.0 * np.mean(np.abs(rel))) if rel.size else nan,
-            "rmse_rad_s": float(np.sqrt(np.mean((w_s - w_e) ** 2))) if w_e.size else nan}
-
-
 def friction_params_of(law):
-    from ..physics import friction
+    from roboball.physics import friction
     return friction.PARAMS[law]
 
 
@@ -138,15 +97,15 @@ def ramp_sim(recording: str, releases: str, regression: str, contact: str, out_c
     medians when given, else Table I), started from the recording's initial pipe angle; the
     drive rate is compared with the recording until the robot leaves the ramp.  The
     `posterior_draws` friction draws come from the campaign's `seed` and the run's name."""
-    from ..recording import read_recording
-    from ..sim.plant import ShellParams, SimSpec
-    from ..sim.scenarios import simulate
+    from roboball.ingest.recording import read_recording
+    from roboball.sim.plant import ShellParams, SimSpec
+    from roboball.sim.scenarios import simulate
 
     rec = read_recording(recording)
     tt, w_e, pipe0 = ramp_window(rec, releases)
     p = rec.pressure_kpa
     zeta, omega = shell_at(regression, p)
-    from ..identify.results import read_joint_friction
+    from roboball.identify.friction.results import read_joint_friction
 
     params = read_joint_friction(friction_steer, friction_drive)
     shell = ShellParams(zeta=zeta, omega_n=omega, modulus_scale=modulus_scale, dissipation_scale=dissipation_scale,
@@ -200,9 +159,9 @@ def replay(kind: str, contact: str, out_html: str, regression: str = "", pressur
     from pydrake.geometry import Meshcat, MeshcatParams
     from pydrake.systems.analysis import Simulator
 
-    from ..atomic import write_text_atomic
-    from ..sim.plant import ShellParams, SimSpec, build
-    from ..sim.scenarios import set_release
+    from roboball.atomic import write_text_atomic
+    from roboball.sim.plant import ShellParams, SimSpec, build
+    from roboball.sim.scenarios import set_release
 
     shell = ShellParams(dissipation_scale=dissipation_scale, injected_steer=kind != "ramp")
     if regression:

@@ -2,7 +2,7 @@
 
 A Drake run at step dt is compared with a reference run at dt / `refine` (4 by default: issue 7's
 "a reference run at a quarter of the time step") by the point mean error of eq. 12
-(roboball.pipeline.simulation.pme), with the reference in the place of the measured speed.  The
+(roboball.metrics.pme), with the reference in the place of the measured speed.  The
 same scenario as the pipeline's ramp descents: the full robot on the 16 deg ramp, Majd friction
 (Table I) on both joints, released from rest with the pipe upright.  Shell terms at one pressure
 are given explicitly (`ShellParams`), so the study does not depend on fitted results.
@@ -17,8 +17,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .plant import ShellParams, SimSpec, build
-from .scenarios import simulate
+from roboball.metrics import pme
+from roboball.sim.plant import ShellParams, SimSpec, build
+from roboball.sim.scenarios import simulate
 
 # The benchmark's shell at 13.8 kPa (the mid test pressure): zeta and omega_n close to the
 # test bed's regression there, and the paper's carried-forward hydroelastic dissipation x0.5.
@@ -58,7 +59,6 @@ def step_study(contact: str, dts, duration: float = 2.0, refine: int = 4,
                pressure_kpa: float = STUDY_PRESSURE_KPA, shell: ShellParams = STUDY_SHELL) -> list[StepResult]:
     """Each step in `dts` against its own reference at dt / `refine`.  References shared between
     steps (dt / 4 of one step is another step) are run once."""
-    from ..pipeline.simulation import pme
 
     runs: dict = {}
 

@@ -18,8 +18,8 @@ import numpy as np
 import pydrake.symbolic as sym
 from pydrake.systems.primitives import SymbolicVectorSystem
 
-from ..physics import friction as friction_laws
-from ..physics import shell as shell_laws
+from roboball.physics import friction as friction_laws
+from roboball.physics import shell as shell_laws
 
 
 def _sign(x):

@@ -46,13 +46,14 @@ from pydrake.multibody.parsing import Parser
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import Adder, LogVectorOutput
 
-from ..config import RobotFacts, load_robot
-from ..physics import friction as friction_laws
-from ..physics import shell as shell_laws
-from ..urdf import ShellTags, make_urdf
-from .forces import InjectedShell, JointFriction, StateLayout, build_force_system
+from roboball.config import RobotFacts, load_robot
+from roboball.kinds import SIMULATED
+from roboball.physics import friction as friction_laws
+from roboball.physics import shell as shell_laws
+from roboball.sim.urdf import ShellTags, make_urdf
+from roboball.sim.forces import InjectedShell, JointFriction, StateLayout, build_force_system
 
-KINDS = ("steer_stand", "drive_stand", "shell_rock", "ramp", "free")
+KINDS = SIMULATED
 CONTACTS = ("point", "injected", "hydroelastic")
 APPROXIMATION = "lagged"            # point and injected contact
 HYDRO_APPROXIMATION = "tamsi"       # hydroelastic contact (falls back to APPROXIMATION where Drake lacks it)
@@ -187,7 +188,7 @@ def injected_term(k, c, shell: ShellParams, normal=(0.0, 0.0, 1.0)):
     if shell.geometry == "planar":
         return InjectedShell(k, c, steer=shell.injected_steer, drive=shell.injected_drive)
     if shell.geometry == "3d":
-        from .shell3d import InjectedShell3D
+        from roboball.sim.shell3d import InjectedShell3D
         return InjectedShell3D(k, c, normal=tuple(float(x) for x in normal))
     raise ValueError(f"unknown injected-shell geometry '{shell.geometry}' (choose from {', '.join(GEOMETRIES)})")
 
@@ -317,7 +318,7 @@ def build(spec: SimSpec, sample_period: float | None = None, meshcat=None) -> Bu
             if spec.shell_laws is None:
                 raise ValueError("a pressure schedule needs the shell's regression laws zeta(p), omega_n(p) "
                                  "(SimSpec.shell_laws, e.g. from results/identify/shell_regression.csv)")
-            from .pressure import scheduled_shell_system
+            from roboball.sim.pressure import scheduled_shell_system
             pressure_system = scheduled_shell_system(layout, spec.shell_laws, robot, spec.pressure_schedule,
                                                      spec.shell, normal)
         else:

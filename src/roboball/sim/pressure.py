@@ -49,8 +49,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import RoboballError
-from ..physics import shell as shell_laws
+from roboball.errors import RoboballError
+from roboball.physics import shell as shell_laws
 
 P_MAX_KPA = 500.0
 
@@ -198,7 +198,7 @@ class ShellLaws:
         return cls(values["zeta_a"], values["zeta_b"], values["omega_n_c"], values["omega_n_d"])
 
     def zeta(self, p_kpa, m=None):
-        from ..physics.mathns import NP
+        from roboball.physics.mathns import NP
         return shell_laws.zeta_of_p(p_kpa, self.zeta_a, self.zeta_b, m=m or NP)
 
     def omega_n(self, p_kpa):
@@ -220,8 +220,8 @@ def pressure_shell_system(layout, laws: ShellLaws, robot, shell=None, normal=(0.
     from pydrake.systems.framework import DiagramBuilder
     from pydrake.systems.primitives import Multiplexer, SymbolicVectorSystem
 
-    from .forces import SYM, Kin
-    from .plant import ShellParams, injected_term
+    from roboball.sim.forces import SYM, Kin
+    from roboball.sim.plant import ShellParams, injected_term
 
     shell = shell if shell is not None else ShellParams()
     q = np.array([sym.Variable(f"q{i}") for i in range(layout.nq)], dtype=object)
@@ -323,7 +323,7 @@ def simulate_schedule(spec, schedule: PressureSchedule, laws: ShellLaws, release
     docstring); hydroelastic: zero-order hold of the contact properties per `hydro_update_s`
     segment; point: the rigid baseline, which has no pressure (the schedule changes nothing).
     """
-    from .scenarios import simulate
+    from roboball.sim.scenarios import simulate
 
     if hydro_update_s <= 0:
         raise RoboballError(f"hydro_update_s {hydro_update_s:g}: must be positive")

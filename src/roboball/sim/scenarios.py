@@ -23,21 +23,11 @@ import pandas as pd
 from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
 from pydrake.systems.analysis import Simulator
 
-from ..errors import SimulationError
-from .forces import Kin
-from .plant import Built, SimSpec, build
+from roboball.errors import SimulationError
+from roboball.kinds import MAIN_SIGNAL, SIM_SIGNALS, STANDS
+from roboball.sim.forces import Kin
+from roboball.sim.plant import Built, SimSpec, build
 
-SIGNALS = {
-    "steer_stand": ["steer_angle_rad", "steer_rate_rad_s"],
-    "drive_stand": ["drive_angle_rad"],
-    "shell_rock": ["pipe_angle_rad", "pipe_rate_rad_s"],
-    # The drive joint is continuous: on the ramp its angle winds up without bound, so rolling
-    # runs record its rate (drive_rate) rather than the angle.
-    "ramp": ["drive_rate_rad_s", "pipe_angle_rad", "steer_angle_rad", "pipe_rate_rad_s", "steer_rate_rad_s"],
-    "free": ["drive_rate_rad_s", "pipe_angle_rad", "steer_angle_rad", "pipe_rate_rad_s", "steer_rate_rad_s"],
-}
-MAIN_SIGNAL = {"steer_stand": "steer_angle_rad", "drive_stand": "drive_angle_rad",
-               "shell_rock": "pipe_angle_rad", "ramp": "drive_rate_rad_s", "free": "pipe_angle_rad"}
 
 
 def set_release(built: Built, context, release: float, steer0: float = 0.0) -> None:
@@ -68,7 +58,7 @@ def set_release(built: Built, context, release: float, steer0: float = 0.0) -> N
         if plant.HasJointNamed("steer") and built.layout.joint_q.get("steer") is not None:
             plant.GetJointByName("steer").set_angle(pctx, steer0)
     plant.SetVelocities(pctx, np.zeros(plant.num_velocities()))
-    if kind not in ("steer_stand", "drive_stand"):
+    if kind not in STANDS:
         settle_on_ground(built, context)
 
 
@@ -235,7 +225,7 @@ def simulate(spec: SimSpec, release: float, duration: float, sample_rate_hz: flo
     times = log.sample_times()
     sig = signals_from_states(built, log.data())
     cols = {"time_s": times}
-    for name in SIGNALS[spec.kind]:
+    for name in SIM_SIGNALS[spec.kind]:
         # A joint locked for this run stays at zero.
         cols[name] = np.asarray(sig.get(name, np.zeros_like(times)), dtype=float)
     df = pd.DataFrame(cols)

@@ -36,8 +36,8 @@ from dataclasses import dataclass
 import numpy as np
 import pydrake.symbolic as sym
 
-from ..physics import shell as shell_laws
-from .forces import SYM, ForceTerm, Kin
+from roboball.physics import shell as shell_laws
+from roboball.sim.forces import SYM, ForceTerm, Kin
 
 
 def _ops(kin: Kin):

@@ -14,11 +14,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..atomic import write_csv_atomic
-from ..recording import write_recording
-from .physics import load_truth, true_robot
-from .run import ALL_EXTRAS, ramp_exit_time, run_free
-from .sensors import hand_phase, measure
+from roboball.atomic import write_csv_atomic
+from roboball.ingest.recording import write_recording
+from roboball.testbed.physics import load_truth, true_robot
+from roboball.testbed.run import ALL_EXTRAS, ramp_exit_time, run_free
+from roboball.testbed.sensors import hand_phase, measure
 
 SIGNAL = {"steer_stand": "steer_angle_rad", "drive_stand": "drive_angle_rad", "shell_rock": "pipe_angle_rad"}
 

@@ -9,7 +9,7 @@ import argparse
 import sys
 import time
 
-from ..errors import RoboballError
+from roboball.errors import RoboballError
 
 
 def main(argv=None) -> int:
@@ -22,7 +22,7 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     try:
         if args.command == "campaign":
-            from .campaign import generate
+            from roboball.testbed.campaign import generate
             t0 = time.time()
             manifest = generate(args.out, only=args.only, workers=args.workers)
             print(f"wrote {len(manifest)} recordings to {args.out} in {time.time() - t0:.0f} s")

@@ -30,8 +30,8 @@ import numpy as np
 import pydrake.symbolic as sym
 from pydrake.systems.primitives import SymbolicVectorSystem
 
-from ..config import RobotFacts
-from ..sim.forces import GeneralizedTerm, Kin
+from roboball.config import RobotFacts
+from roboball.sim.forces import GeneralizedTerm, Kin
 
 JOINT = {"steer_stand": "steer", "drive_stand": "drive"}
 SMOOTH_SIGN_EPS = 0.05         # rad/s, ramp rolling resistance

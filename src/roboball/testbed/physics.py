@@ -8,14 +8,14 @@ import numpy as np
 import pydrake.symbolic as sym
 from pydrake.systems.primitives import SymbolicVectorSystem
 
-from ..config import RobotFacts, load_robot
-from ..sim.forces import SYM, GeneralizedTerm, Kin
+from roboball.config import RobotFacts, load_robot
+from roboball.sim.forces import SYM, GeneralizedTerm, Kin
 
 
 def load_truth(path=None) -> dict:
     import yaml
 
-    from . import TRUTH_YAML
+    from roboball.testbed import TRUTH_YAML
     with open(path or TRUTH_YAML, encoding="utf-8") as fh:
         return yaml.safe_load(fh)
 

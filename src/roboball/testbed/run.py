@@ -5,10 +5,10 @@ import math
 
 import numpy as np
 
-from ..physics import shell as shell_laws
-from ..sim.plant import ShellParams, SimSpec
-from ..sim.scenarios import simulate
-from .physics import load_truth, lugre_system, shell_truth_terms, true_robot
+from roboball.physics import shell as shell_laws
+from roboball.sim.plant import ShellParams, SimSpec
+from roboball.sim.scenarios import simulate
+from roboball.testbed.physics import load_truth, lugre_system, shell_truth_terms, true_robot
 
 ALL_EXTRAS = frozenset({"friction", "shell", "mass", "hydro"})
 
@@ -72,7 +72,7 @@ def ramp_exit_time(df, x, spec) -> float | None:
     """First time the shell touches the floor at the bottom of the finite ramp."""
     if spec.ramp_length_m is None:
         return None
-    from ..sim.plant import build  # layout of the same spec (cheap relative to the run)
+    from roboball.sim.plant import build  # layout of the same spec (cheap relative to the run)
     lay = build(spec).layout
     z = x[lay.base_q + 6]
     alpha = math.radians(spec.ramp_angle_deg if spec.ramp_angle_deg is not None else spec.robot.ramp_angle_deg)

@@ -15,7 +15,7 @@ half-written is taken as finished.)
 
 Usage (the Makefile's ``figures`` target)::
 
-    python -m roboball.runlock .venv/bin/snakemake --cores 2 ...
+    python -m roboball.pipeline.runlock .venv/bin/snakemake --cores 2 ...
 
 Caveat: a Snakemake started directly (not through this wrapper) in the same folder does not
 take the flock, so its lock would be treated as stale; start pipeline runs with ``make figures``.
@@ -58,7 +58,7 @@ def remove_stale_locks(state_dir: Path = STATE_DIR) -> list[Path]:
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if not argv:
-        print("usage: python -m roboball.runlock SNAKEMAKE [ARGS...]", file=sys.stderr)
+        print("usage: python -m roboball.pipeline.runlock SNAKEMAKE [ARGS...]", file=sys.stderr)
         return 2
     fd = acquire()
     if fd is None:

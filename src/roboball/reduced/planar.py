@@ -3,7 +3,7 @@
 Why: identifying friction with MCMC needs the simulated swing for thousands of parameter sets.
 Drake simulates one set at a time; these models integrate the same physics for a whole batch
 (every emcee walker, every release, every finite-difference perturbation) in one call.  Runs
-with a friction law alone go through the compiled loop of :mod:`roboball.reduced_kernel` (the
+with a friction law alone go through the compiled loop of :mod:`roboball.reduced.kernel` (the
 same algorithm in machine code, rows in parallel threads); runs with extra torques (diagnosis
 effects, the injected shell) use the NumPy loop here, which pays the per-step Python overhead
 once per batch.  The friction torque is computed by the law functions of
@@ -88,11 +88,12 @@ from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
-from .config import RobotFacts, load_robot
-from .errors import RoboballError, SimulationError
-from .physics import friction
-from .physics import shell as shell_laws
-from . import reduced_kernel
+from roboball.config import RobotFacts, load_robot
+from roboball.errors import RoboballError, SimulationError
+from roboball.kinds import MAIN_SIGNAL, OSCILLATING
+from roboball.physics import friction
+from roboball.physics import shell as shell_laws
+from roboball.reduced import kernel as reduced_kernel
 
 __all__ = [
     "KINDS",
@@ -111,9 +112,8 @@ __all__ = [
     "step_error",
 ]
 
-KINDS = ("steer_stand", "drive_stand", "shell_rock")
-COORDINATE = {"steer_stand": "steer_angle_rad", "drive_stand": "drive_angle_rad",
-              "shell_rock": "pipe_angle_rad"}
+KINDS = OSCILLATING
+COORDINATE = {k: MAIN_SIGNAL[k] for k in OSCILLATING}
 DEFAULT_DT = 2.5e-3
 STIFF_KAPPA = 2.0
 _NEWTON_MAX_IT = 40
@@ -292,7 +292,7 @@ def integrate(model: PlanarModel, law: str, params: Mapping, q0, qd0, duration: 
     caller decides; see :func:`simulate_stand`).
 
     With ``compiled`` (default) a run with a friction law and no extra torque or work record
-    goes through the compiled loop of :mod:`roboball.reduced_kernel` (same algorithm, same
+    goes through the compiled loop of :mod:`roboball.reduced.kernel` (same algorithm, same
     results to ~1e-12 rad); ``compiled=False`` forces this NumPy loop.  ``row_durations`` (B,)
     lets the compiled loop stop a row early (it then holds its last state); the NumPy loop
     integrates every row for `duration` (a caller reads each row only up to its own end).
@@ -334,7 +334,7 @@ def integrate(model: PlanarModel, law: str, params: Mapping, q0, qd0, duration: 
         m_min = model.inertia0_kg_m2 - 2.0 * RG
         band, slope0 = _stiff_band(ffun, 1.0 / m_min, dt, stiff_kappa, B)
         if compiled and reduced_kernel.supports(law, etor, record_work):
-            # the same algorithm in machine code (roboball.reduced_kernel), rows in parallel
+            # the same algorithm in machine code (roboball.reduced.kernel), rows in parallel
             n_rows = None if row_durations is None else \
                 np.ceil(np.asarray(row_durations, dtype=float).ravel() / dt - 1e-9).astype(np.int64)
             Qr, Vr, n_impl = reduced_kernel.integrate_rows(model, law, params, q, v, n, dt, band, slope0, n_rows)

@@ -1,7 +1,7 @@
 """Joint-friction identification on stand recordings: least squares, then emcee posteriors.
 
 Model: ONE friction law (roboball.physics.friction) on ONE joint, in the reduced stand model
-of :mod:`roboball.reduced` (steer stand: viscous, coulomb_viscous or majd; drive stand: any law,
+of :mod:`roboball.reduced.planar` (steer stand: viscous, coulomb_viscous or majd; drive stand: any law,
 the paper fits majd).  Data: every release of a stand recording at once, a list of segments
 (t, y, release) with y the measured joint angle from the release instant to the end of the
 free response.  Each release starts from rest at an initial angle that is a nuisance
@@ -68,10 +68,11 @@ from typing import Mapping, Sequence
 import numpy as np
 import pandas as pd
 
-from .. import reduced
-from ..config import CONFIG_DIR, RobotFacts, load_robot, load_yaml, validate
-from ..errors import ConfigError, RoboballError
-from ..physics import friction
+from roboball.reduced import planar as reduced
+from roboball.config import CONFIG_DIR, RobotFacts, load_robot, load_yaml, validate
+from roboball.errors import ConfigError, RoboballError
+from roboball.metrics import burn_and_tau
+from roboball.physics import friction
 
 __all__ = [
     "Segment",
@@ -130,7 +131,7 @@ def segments_from_arrays(data: Sequence, source: str = "data") -> list[Segment]:
     """Segments from a list of ``(t, y, release)`` triples.
 
     `release` is the release time (float), or a mapping / object with ``t_release_s`` (and
-    optionally ``t_end_s``, ``y_release``; :class:`roboball.releases.Release` works).  Samples
+    optionally ``t_end_s``, ``y_release``; :class:`roboball.ingest.releases.Release` works).  Samples
     before the release and after ``t_end_s`` are dropped; the release angle defaults to the
     measured angle interpolated at the release time.  Several triples may share one (t, y).
     """
@@ -270,7 +271,7 @@ class Prior:
 
 def load_priors(path: str | os.PathLike | None = None) -> dict:
     """Read configs/priors.yaml (or `path`), schema-validated and cross-checked."""
-    from ..checks import check_priors
+    from roboball.checks import check_priors
 
     path = Path(path) if path is not None else CONFIG_DIR / "priors.yaml"
     data = load_yaml(path, schema="priors.schema.yaml")
@@ -285,7 +286,7 @@ def law_priors(joint: str, law: str, priors: Mapping | str | os.PathLike | None 
     (``{param: spec}``, e.g. from ``--prior-json``), a path, or None for configs/priors.yaml.
     A law block is validated with the same schema and checks as the file.
     """
-    from ..checks import check_priors
+    from roboball.checks import check_priors
 
     if law not in friction.PARAMS or law == "none":
         raise RoboballError(f"{source}: unknown friction law '{law}' (viscous, coulomb_viscous, majd)")
@@ -673,23 +674,10 @@ def _initial_walkers(problem: FrictionProblem, lsq: dict, n_walkers: int, rng: n
     return U
 
 
-def _burn_and_tau(chain: np.ndarray) -> tuple[int, np.ndarray]:
-    """Burn-in (5 tau from the second half, at most half the chain) and tau after it."""
-    import emcee
-
-    n = chain.shape[0]
-    # A coordinate that has not moved yet (all walkers stuck, a very short chain) gives NaN:
-    # count it as correlated over the whole chain, i.e. not converged, rather than crash.
-    tau_half = np.nan_to_num(emcee.autocorr.integrated_time(chain[n // 2:], tol=0), nan=float(n))
-    burn = int(min(n // 2, math.ceil(5 * np.max(tau_half))))
-    tau = np.nan_to_num(emcee.autocorr.integrated_time(chain[burn:], tol=0), nan=float(n))
-    return burn, tau
-
-
 @functools.lru_cache(maxsize=None)
 def _code_fingerprint() -> str:
     """The source of the log-probability: this module's import closure (once per process)."""
-    from ..pipeline.codedeps import source_fingerprint
+    from roboball.pipeline.codedeps import source_fingerprint
     return source_fingerprint(__name__)
 
 
@@ -808,7 +796,7 @@ def sample_posterior(problem: FrictionProblem, lsq: dict, chain_path: str | os.P
         judge = n >= adapt + min_steps
         if n >= min_steps:
             start = adapt if judge else 0
-            burn_rel, tau = _burn_and_tau(backend.get_chain()[start:])
+            burn_rel, tau = burn_and_tau(backend.get_chain()[start:])
             burn = start + burn_rel
             if judge and np.all(np.isfinite(tau)) and (n - burn) >= autocorr_multiple * float(np.max(tau)):
                 converged = True
@@ -952,7 +940,7 @@ def summarize(problem: FrictionProblem, lsq: dict, post: dict, seed: int = 0, n_
            "release_angles_rad": [a["median"] for a in angles], "release_angles": angles,
            "release_times_s": [float(s.t_release) for s in problem.segments],
            "fit": fit_stats, "convergence": conv,
-           "integration": {"method": "RK4 + implicit stiction step (roboball.reduced, compiled loop roboball.reduced_kernel)", "dt_s": problem.dt,
+           "integration": {"method": "RK4 + implicit stiction step (roboball.reduced.planar, compiled loop roboball.reduced.kernel)", "dt_s": problem.dt,
                            "step_error_rad": step_error},
            "angles_sampled": problem.angles_sampled, "chain": post["chain_path"],
            "seed": int(seed), "notes": notes}
@@ -1035,7 +1023,7 @@ def fit(recording: str | os.PathLike, releases: str | os.PathLike, joint: str, l
         dt: float | None = None, sample_angles: bool = True, stale: str = "refuse") -> tuple[dict, pd.DataFrame]:
     """Pipeline entry: fit `law` on `joint` to a stand recording (CSV + sidecar) and its
     releases JSON (``{"releases": [{"t_release_s", "t_end_s", "y_release", ...}]}``)."""
-    from ..recording import read_recording
+    from roboball.ingest.recording import read_recording
 
     if joint not in KIND_OF_JOINT:
         raise RoboballError(f"--joint: unknown joint '{joint}' (steer or drive)")

@@ -36,11 +36,11 @@ from typing import TYPE_CHECKING, Sequence
 import numpy as np
 from scipy.optimize import least_squares
 
-from .errors import RoboballError
-from .releases import Release, prepare_signal, zigzag
+from roboball.errors import RoboballError
+from roboball.ingest.releases import Release, prepare_signal, zigzag
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .recording import Recording
+    from roboball.ingest.recording import Recording
 
 __all__ = [
     "DampedSineFit",
@@ -507,7 +507,7 @@ def decay_table(recording: "Recording", releases: list[Release] | None = None, s
     releases raises a one-line RoboballError naming the file."""
     import pandas as pd
 
-    from .releases import require_releases
+    from roboball.ingest.releases import require_releases
 
     if recording.kind == "ramp":
         raise RoboballError(

@@ -20,8 +20,8 @@ import json
 import math
 from pathlib import Path
 
-from ..cli import register_command
-from ..errors import RoboballError
+from roboball.cli.main import register_command
+from roboball.errors import RoboballError
 
 PRESSURES_KPA = (6.9, 10.3, 13.8, 17.2, 20.7)
 
@@ -117,8 +117,8 @@ def _friction(results: Path, missing: list) -> list:
 def _shell(results: Path, missing: list) -> list:
     import pandas as pd
 
-    from ..config import load_robot
-    from ..physics import shell as shell_laws
+    from roboball.config import load_robot
+    from roboball.physics import shell as shell_laws
 
     path = results / "identify" / "shell_regression.csv"
     if not path.is_file():
@@ -217,7 +217,7 @@ def cmd_report(args) -> int:
         raise RoboballError("report: say what to report (--params)")
     text = render(args.results, args.figures)
     if args.out:
-        from ..atomic import write_text_atomic
+        from roboball.atomic import write_text_atomic
         write_text_atomic(args.out, text)
         print(f"wrote {args.out}")
     else:

@@ -7,11 +7,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..atomic import write_csv_atomic, write_text_atomic
-from ..errors import RoboballError
+from roboball.atomic import write_csv_atomic, write_text_atomic
+from roboball.errors import RoboballError
 # The style, the atomic saver and the ingest QC plot live in .plotting, so that editing a figure
 # here reruns the figure rules only (the ingest stage imports .plotting, not this module).
-from .plotting import CONTACT_COLOURS, plt, save
+from roboball.figures.style import CONTACT_COLOURS, plt, save
 
 STAGES = ("fig10", "fig11", "fig13_14", "table2")
 # Columns of the ramp summary that fig13_14 needs (roboball.pipeline.simulation.speed_errors).
@@ -32,9 +32,9 @@ def fig10(points: str, regression: str, sims: str, out_png: str, robot_yaml: str
     """Fig. 10: recorded zeta and omega_n vs pressure (error bars), regressions with 95% bands,
     eq. 5 (dashed), and each contact model's simulated values.  `campaign` names where the
     recordings come from (config `campaign`), in the title."""
-    from ..config import load_robot
-    from ..physics import shell as sl
-    from ..regress import fit_regressions
+    from roboball.config import load_robot
+    from roboball.physics import shell as sl
+    from roboball.identify.shell.regress import fit_regressions
 
     robot = load_robot(robot_yaml or None)
     pts = pd.read_csv(points)
@@ -263,7 +263,7 @@ def fig13_14(summary: str, out13: str, out14: str, out_csv: str, out_md: str, ca
 def table2(out_csv: str, out_md: str, robot_yaml: str = "") -> None:
     """Table II (measured numerical values) from configs/robot.yaml, with the eq. 4-5 numbers
     derived from them."""
-    from ..config import load_robot
+    from roboball.config import load_robot
 
     r = load_robot(robot_yaml or None)
     L = r.links

@@ -21,7 +21,7 @@ Models (coordinates measured from the baseline model's rest; robot facts from co
       M(q) qdd + m R d sin(q) qd^2 + k_g sin q = tau_effects(q, qd),
       M(q) = I_c + m (R^2 + d^2 - 2 R d cos q),  k_g = m g d,
   which at q = 0 gives eq. 4-5's M_eq and K_eq.
-* `roboball.reduced_ramp.RampModel` (ramp): shell rolling + pendulum about the drive axis.
+* `roboball.reduced.ramp.RampModel` (ramp): shell rolling + pendulum about the drive axis.
 
 Integration: explicit midpoint (RK2) with a fixed step, 2 ms by default.  The dry-friction
 laws switch sign within a step, so the method is only first order there, but at 2 ms the
@@ -37,9 +37,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..config import RobotFacts, load_robot
-from ..physics import effects as fx
-from ..physics.mathns import NP
+from roboball.config import RobotFacts, load_robot
+from roboball.physics import effects as fx
+from roboball.physics.mathns import NP
 
 DT = 2e-3
 
@@ -278,8 +278,8 @@ def rolling_radius(robot: RobotFacts) -> float:
     """
     key = (robot.source, robot.radius, robot.total_mass)
     if key not in _ROLLING_RADIUS:
-        from ..sim.plant import SimSpec, build
-        from ..sim.scenarios import simulate
+        from roboball.sim.plant import SimSpec, build
+        from roboball.sim.scenarios import simulate
         spec = SimSpec(kind="shell_rock", contact="point", friction={"steer": "none", "drive": "none"}, robot=robot)
         _, x = simulate(spec, robot.shell_rest_angle, 0.5, sample_rate_hz=100.0, return_states=True)
         lay = build(spec).layout
@@ -295,7 +295,7 @@ def model_for(kind: str, robot: RobotFacts | None = None, **kw) -> ReducedModel:
     if kind == "shell_rock":
         return ShellModel(robot)
     if kind == "ramp":
-        from ..reduced_ramp import RampModel
+        from roboball.reduced.ramp import RampModel
         return RampModel(robot, **kw)
     raise ValueError(f"no reduced model for kind '{kind}'")
 

@@ -2,15 +2,15 @@
 
 One reader for every consumer of the fits (the ramp descents, the deflating ramp, the diagnosis's
 calibrated ramp baseline), so that a malformed file fails the same way, in one line, everywhere.
-Kept apart from roboball.identify.friction_fit so that reading a fit does not pull the sampler
+Kept apart from roboball.identify.friction.fit so that reading a fit does not pull the sampler
 into the code fingerprint of the stages that only read one."""
 from __future__ import annotations
 
 import json
 from pathlib import Path
 
-from ..errors import RoboballError
-from ..physics import friction as friction_laws
+from roboball.errors import RoboballError
+from roboball.physics import friction as friction_laws
 
 
 def read_friction(path) -> dict:

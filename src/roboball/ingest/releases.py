@@ -57,10 +57,11 @@ import numpy as np
 from scipy.ndimage import maximum_filter1d, median_filter, minimum_filter1d
 from scipy.signal import savgol_filter
 
-from .errors import RoboballError
+from roboball.errors import RoboballError
+from roboball.kinds import OSCILLATING
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .recording import Recording
+    from roboball.ingest.recording import Recording
 
 __all__ = [
     "Release",
@@ -74,7 +75,7 @@ __all__ = [
     "synthetic_release_log",
 ]
 
-OSCILLATING_KINDS = ("steer_stand", "drive_stand", "shell_rock")
+OSCILLATING_KINDS = OSCILLATING
 
 
 @dataclass

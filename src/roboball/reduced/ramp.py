@@ -9,7 +9,7 @@ Model: two rigid bodies in the vertical plane of the descent.
   the driveshaft) on an incline of angle alpha: its centre moves by s along the slope and it
   turns by theta about the robot's +y (positive rolling downhill); theta' is the recording's
   drive_rate.  It rolls on the radius R of Drake's compliant point contact
-  (roboball.diagnose.models.rolling_radius);
+  (roboball.reduced.batched.rolling_radius);
 * the pitch centre and pendulum (steering held at zero, as one body: mass m_p, centre of mass
   a distance -z_c below the centre in its own frame, inertia I_p about the driveshaft through
   its centre of mass) swing about the driveshaft with world pitch angle beta (0 = hanging).
@@ -35,7 +35,7 @@ logs; the planar model then runs up to 0.2% (Table I) or 0.6% (fitted) of the to
 +0.02% or +0.09% by eq. 12 (tests/test_diagnose_models.py).
 
 Integration: explicit midpoint (RK2) with a fixed step (2 ms), the contact mode frozen within
-a step, like roboball.diagnose.models.
+a step, like roboball.reduced.batched.
 """
 from __future__ import annotations
 
@@ -43,9 +43,9 @@ import math
 
 import numpy as np
 
-from .config import RobotFacts, load_robot
-from .diagnose.models import DT, ReducedModel, active_effects, rolling_radius
-from .physics import friction as friction_laws
+from roboball.config import RobotFacts, load_robot
+from roboball.reduced.batched import DT, ReducedModel, active_effects, rolling_radius
+from roboball.physics import friction as friction_laws
 
 
 class RampModel(ReducedModel):

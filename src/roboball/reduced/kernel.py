@@ -1,7 +1,7 @@
 """Compiled time loop of the reduced planar model (Numba): the same algorithm, no Python per step.
 
 Why: the friction posterior simulates every walker's releases at every MCMC step.  The NumPy loop
-of :func:`roboball.reduced.integrate` pays ~15 array operations per RK4 stage in Python, about
+of :func:`roboball.reduced.planar.integrate` pays ~15 array operations per RK4 stage in Python, about
 80 us per step for a batch of 128 rows, which made a converged Majd posterior take half an hour.
 Here each batch row runs the identical algorithm in machine code (rows in parallel threads):
 
@@ -24,8 +24,8 @@ import math
 
 import numpy as np
 
-from .physics import friction
-from .physics.mathns import scalar
+from roboball.physics import friction
+from roboball.physics.mathns import scalar
 
 __all__ = ["supports", "integrate_rows"]
 
@@ -57,7 +57,7 @@ def _kernel(law: str):
         return _KERNELS[law]
     from numba import njit, prange
 
-    from .reduced import _NEWTON_MAX_IT        # the NumPy loop's iteration cap, frozen into the kernel
+    from roboball.reduced.planar import _NEWTON_MAX_IT        # the NumPy loop's iteration cap, frozen into the kernel
 
     fric = _law_call(law)
 

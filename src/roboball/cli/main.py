@@ -10,7 +10,8 @@ import math
 import sys
 from pathlib import Path
 
-from .errors import RoboballError
+from roboball.errors import RoboballError
+from roboball.kinds import SIMULATED
 
 FRICTION_CHOICES = ("none", "viscous", "coulomb_viscous", "majd")
 
@@ -45,12 +46,12 @@ def _number(name):
 
 
 def cmd_simulate(args) -> int:
-    from .checks import load_checked_robot
-    from .config import ROBOT_YAML
-    from .physics import shell as shell_laws
-    from .recording import write_recording
-    from .sim.plant import ShellParams, SimSpec
-    from .sim.scenarios import simulate
+    from roboball.checks import load_checked_robot
+    from roboball.config import ROBOT_YAML
+    from roboball.physics import shell as shell_laws
+    from roboball.ingest.recording import write_recording
+    from roboball.sim.plant import ShellParams, SimSpec
+    from roboball.sim.scenarios import simulate
 
     if args.dt > 0.01:
         raise RoboballError(f"--dt {args.dt}: time step above 10 ms is not allowed (contact and friction become inaccurate)")
@@ -89,8 +90,8 @@ def cmd_simulate(args) -> int:
 
 
 def cmd_check_config(args) -> int:
-    from .checks import check_config_dir
-    from .config import CONFIG_DIR
+    from roboball.checks import check_config_dir
+    from roboball.config import CONFIG_DIR
 
     for path in check_config_dir(args.config_dir or CONFIG_DIR):
         print(f"ok {path}")
@@ -98,9 +99,9 @@ def cmd_check_config(args) -> int:
 
 
 def cmd_urdf(args) -> int:
-    from .atomic import write_text_atomic
-    from .config import load_robot
-    from .urdf import make_urdf
+    from roboball.atomic import write_text_atomic
+    from roboball.config import load_robot
+    from roboball.sim.urdf import make_urdf
 
     text = make_urdf(load_robot(args.robot))
     if args.out:
@@ -115,7 +116,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True)
 
     s = sub.add_parser("simulate", help="simulate one experiment in Drake and write a recording")
-    s.add_argument("kind", choices=("steer_stand", "drive_stand", "shell_rock", "ramp", "free"))
+    s.add_argument("kind", choices=SIMULATED)
     s.add_argument("--contact", choices=("point", "injected", "hydroelastic"), default="point")
     s.add_argument("--friction", choices=FRICTION_CHOICES, default="none",
                    help="friction law on both joints, Table I values (default: none)")
@@ -161,7 +162,7 @@ def register_command(fn):
 
 def _load_plugins():
     import importlib
-    for mod in ("roboball.diagnose.cli", "roboball.pipeline_cli", "roboball.pipeline.params_report"):
+    for mod in ("roboball.cli.diagnose", "roboball.cli.stage", "roboball.report.params"):
         try:
             importlib.import_module(mod)
         except ModuleNotFoundError as exc:
@@ -189,10 +190,3 @@ def main(argv=None) -> int:
         print("roboball: interrupted", file=sys.stderr)
         return 130
 
-
-if __name__ == "__main__":
-    # `python -m roboball.cli`: run the canonical module's main, where plugins register their
-    # subcommands (this file is a second module object named __main__).
-    from roboball.cli import main as _main
-
-    sys.exit(_main())

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from .recording import (
+from roboball.ingest.recording import (
     Recording,
     _err,
     _fields,
@@ -109,7 +109,7 @@ def import_native(
     ramp_exit_s: float | None = None,
 ) -> Recording:
     """Convert a native steer-stand or shell log into a :class:`Recording` (in memory; use
-    :func:`roboball.recording.write_recording` to save it).
+    :func:`roboball.ingest.recording.write_recording` to save it).
 
     Time is shifted to start at 0; the offset is kept in ``meta["time_offset_s"]``
     (steer log, seconds) or ``meta["time_offset_ns"]`` (shell log, integer ns).
@@ -196,7 +196,7 @@ def import_native(
 
 def read_any(path: str | Path, **flags: Any) -> Recording:
     """Read a recording or a native log, whichever `path` is.  `flags` are those of
-    :func:`roboball.recording.read_recording` (kind, pressure_kpa, ramp_angle_deg,
+    :func:`roboball.ingest.recording.read_recording` (kind, pressure_kpa, ramp_angle_deg,
     ramp_exit_s); None values are ignored."""
     path = Path(path)
     flags = {k: v for k, v in flags.items() if v is not None}

@@ -8,18 +8,19 @@ each of their releases is a release of the pooled fit, and held-out validation l
 (for ramp runs, which hold one descent each, a whole run).  --friction-steer/--friction-drive
 replace the ramp baseline's Table I friction by fitted Majd parameters.
 Exit 0 when a diagnosis was made, whatever it found; a one-line error and a non-zero exit on
-bad input (wrong columns, unknown kind, empty file: roboball.recording's validation).
+bad input (wrong columns, unknown kind, empty file: roboball.ingest.recording's validation).
 """
 from __future__ import annotations
 
 import time
 from pathlib import Path
 
-from ..atomic import output_folder
-from ..cli import register_command
-from ..errors import RoboballError
+from roboball.atomic import output_folder
+from roboball.cli.main import register_command
+from roboball.errors import RoboballError
+from roboball.kinds import RECORDED
 
-KINDS = ("steer_stand", "drive_stand", "shell_rock", "ramp")
+KINDS = RECORDED
 
 
 def _kind(text: str) -> str:
@@ -38,8 +39,8 @@ def _pressure(text: str) -> float:
 
 
 def cmd_diagnose(args) -> int:
-    from . import diagnose, read_joint_friction
-    from .decide import Settings
+    from roboball.diagnose import diagnose, read_joint_friction
+    from roboball.diagnose.decide import Settings
 
     t0 = time.perf_counter()
     for path in args.recording:

@@ -9,9 +9,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..atomic import write_csv_atomic, write_text_atomic
-from ..physics import friction
-from .plotting import plt, save
+from roboball.atomic import write_csv_atomic, write_text_atomic
+from roboball.physics import friction
+from roboball.figures.style import plt, save
 
 STAGES = ("fig5", "fig_stand_fits", "table1", "corner_plot")
 LAW_COLOURS = {"viscous": "#1f77b4", "coulomb_viscous": "#ff7f0e", "majd": "#2ca02c"}
@@ -72,8 +72,8 @@ def fig5(fits: list, out_png: str) -> None:
 
 
 def _drake_swing(kind, law, params, q0, duration):
-    from ..sim.plant import SimSpec
-    from ..sim.scenarios import simulate
+    from roboball.sim.plant import SimSpec
+    from roboball.sim.scenarios import simulate
 
     joint = "steer" if kind == "steer_stand" else "drive"
     other = "drive" if joint == "steer" else "steer"
@@ -86,7 +86,7 @@ def _drake_swing(kind, law, params, q0, duration):
 def fig_stand_fits(recording: str, releases: str, fits: list, out_png: str, title: str = "") -> None:
     """Stand data (every release) overlaid with each fitted law simulated in Drake from the
     fitted release angle (Fig. 7 for the steer stand, Fig. 8 for the drive stand)."""
-    from ..recording import read_recording
+    from roboball.ingest.recording import read_recording
 
     rec = read_recording(recording)
     with open(releases, encoding="utf-8") as fh:
@@ -119,7 +119,7 @@ def fig_stand_fits(recording: str, releases: str, fits: list, out_png: str, titl
 def table1(fits: list, out_csv: str, out_md: str, comparison_csv: str = "", robot_yaml: str = "") -> None:
     """Table I regenerated: point estimates (posterior median, MAP) and 95% intervals, next to
     the paper's values; plus the model comparison per joint."""
-    from ..config import load_robot
+    from roboball.config import load_robot
 
     robot = load_robot(robot_yaml or None)
     rows, chains = [], []

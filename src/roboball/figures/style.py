@@ -1,5 +1,5 @@
 """Plotting shared by every stage that draws: the house style, the atomic, timestamp-free saver
-(PNG + PDF twin) and the ingest stage's QC plot.  Kept apart from roboball.pipeline.figures so
+(PNG + PDF twin) and the ingest stage's QC plot.  Kept apart from roboball.figures.paper so
 that editing a paper figure does not change the code fingerprint of the ingest stage (and with
 it every job of the DAG)."""
 from __future__ import annotations
@@ -11,7 +11,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from ..atomic import savefig_atomic  # noqa: E402
+from roboball.atomic import savefig_atomic  # noqa: E402
 
 CONTACT_COLOURS = {"point": "#7f7f7f", "injected": "#1f77b4", "hydroelastic": "#d62728", "diagnosed": "#2ca02c"}
 plt.rcParams.update({"font.size": 10, "axes.grid": True, "grid.alpha": 0.3, "savefig.dpi": 150,

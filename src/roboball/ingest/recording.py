@@ -27,8 +27,9 @@ from typing import Any, Mapping
 import numpy as np
 import pandas as pd
 
-from .atomic import csv_text, json_dumps_stable, write_texts_atomic
-from .errors import RoboballError
+from roboball.atomic import csv_text, json_dumps_stable, write_texts_atomic
+from roboball.errors import RoboballError
+from roboball.kinds import ANGLE_SIGNALS, KNOWN_SIGNALS, MAIN_SIGNAL, PRESSURE_REQUIRED, RECORDED
 
 __all__ = [
     "RecordingError",
@@ -52,24 +53,7 @@ class RecordingError(RoboballError):
     """A recording (CSV or sidecar) is missing, malformed or physically implausible."""
 
 
-KINDS = ("steer_stand", "drive_stand", "shell_rock", "ramp")
-KNOWN_SIGNALS = (
-    "steer_angle_rad",
-    "drive_angle_rad",
-    "pipe_angle_rad",
-    "drive_rate_rad_s",
-    "steer_rate_rad_s",
-    "pipe_rate_rad_s",
-)
-ANGLE_SIGNALS = ("steer_angle_rad", "drive_angle_rad", "pipe_angle_rad")
-MAIN_SIGNAL = {
-    "steer_stand": "steer_angle_rad",
-    "drive_stand": "drive_angle_rad",
-    "shell_rock": "pipe_angle_rad",
-    "ramp": "drive_rate_rad_s",
-}
-# Kinds whose pressure must be known (the shell is in contact with the ground).
-PRESSURE_REQUIRED = ("shell_rock", "ramp")
+KINDS = RECORDED
 DEFAULT_RAMP_ANGLE_DEG = 16.0  # robot-facts.md: the paper's ramp
 MAX_PRESSURE_KPA = 500.0  # far above any inflatable shell; larger values are unit mistakes
 NS_TIME_LIMIT = 1e9  # time_s values beyond this are nanosecond (or epoch) stamps
@@ -314,7 +298,7 @@ def check_columns(file: Any, header: list[str], kind: str | None = None) -> None
             raise _err(
                 file, "line 1 (header), column 1",
                 f"first column is {first!r}, not 'time_s': this is {NATIVE_HEADERS[first]}",
-                "import it with roboball.importers.read_any / import_native",
+                "import it with roboball.ingest.importers.read_any / import_native",
             )
         hint = "name it time_s (seconds)" if "time" in first.lower() else "the first column must be time_s (seconds)"
         raise _err(file, "line 1 (header), column 1", f"first column is {first!r}, expected 'time_s'", hint)
@@ -370,7 +354,7 @@ def check_values(
         raise _err(
             file, "column time_s",
             f"values up to {tmax:.4g} (median step {med:.4g}) look like nanoseconds, not seconds",
-            "use the importer (roboball.importers.read_any) or convert to seconds from the first sample",
+            "use the importer (roboball.ingest.importers.read_any) or convert to seconds from the first sample",
         )
     back = np.nonzero(dt < 0)[0]
     if back.size:

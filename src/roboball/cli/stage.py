@@ -9,8 +9,8 @@ import argparse
 import inspect
 import sys
 
-from .cli import OneLineArgumentParser, register_command
-from .pipeline.codedeps import STAGE_MODULES   # one list: the CLI's search order and the rules' fingerprints
+from roboball.cli.main import OneLineArgumentParser, register_command
+from roboball.pipeline.codedeps import STAGE_MODULES   # one list: the CLI's search order and the rules' fingerprints
 
 
 def _stages(wanted: str | None = None) -> dict:
@@ -19,7 +19,7 @@ def _stages(wanted: str | None = None) -> dict:
     others (matplotlib, Drake); an unknown name imports them all to list the stages."""
     import importlib
 
-    from .pipeline.codedeps import stage_module
+    from roboball.pipeline.codedeps import stage_module
     out = {}
     try:                 # the module that declares the stage, found without importing the others
         modules = (stage_module(wanted),) if wanted is not None else STAGE_MODULES
@@ -43,7 +43,7 @@ def _run_stage(args) -> int:
     stages = _stages(args.stage)
     fn = stages.get(args.stage)
     if fn is None:
-        from .errors import RoboballError
+        from roboball.errors import RoboballError
         raise RoboballError(f"unknown stage '{args.stage}' (stages: {', '.join(sorted(stages))})")
     p = OneLineArgumentParser(prog=f"roboball stage {args.stage}", description=fn.__doc__)
     for name, par in inspect.signature(fn).parameters.items():

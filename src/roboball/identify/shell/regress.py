@@ -25,7 +25,7 @@ import pandas as pd
 from scipy import stats
 from scipy.optimize import least_squares
 
-from .errors import RoboballError
+from roboball.errors import RoboballError
 
 __all__ = [
     "RegressionFit",
@@ -212,7 +212,7 @@ class Regressions:
 
 def fit_regressions(decay_df: pd.DataFrame, weighted: bool = True) -> Regressions:
     """Fit zeta(p) and omega_n(p) to a decay table (columns pressure_kpa, zeta, zeta_se,
-    omega_n_rad_s, omega_n_se_rad_s; see roboball.decay.decay_table).  Rows without a
+    omega_n_rad_s, omega_n_se_rad_s; see roboball.identify.shell.decay.decay_table).  Rows without a
     pressure are ignored.  `weighted`: use the standard-error columns as weights."""
     need = ["pressure_kpa", "zeta", "omega_n_rad_s"]
     missing = [c for c in need if c not in decay_df.columns]

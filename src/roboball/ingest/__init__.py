@@ -1,0 +1,2 @@
+"""Ingest: read a log (the recording format or an authors' native format), check it, and find
+its releases.  Nothing here fits or simulates."""

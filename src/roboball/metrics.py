@@ -1,0 +1,91 @@
+"""Scores shared by the stages: the paper's point mean error (eq. 12) and its companions, the
+information criterion and effective sample size the diagnosis selects by, and the burn-in and
+autocorrelation time that say whether an MCMC chain has converged.  Plain functions of arrays,
+imported by identification, simulation, diagnosis and reports alike."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+# Eq. 12 leaves out the first instants after release, where the measured speed is near zero
+# and the ratio is undefined.
+SPEED_FLOOR_RAD_S = 0.5
+
+
+# ---- ramp descents: eq. 12 ------------------------------------------------------------------
+def relative_errors(w_measured, w_sim, floor: float) -> np.ndarray:
+    """Eq. 12's samples, (w_s - w_e) / w_e, at the samples whose measured speed reaches `floor`
+    (the first instants after release, where w_e ~ 0 and the ratio is undefined, are left out)."""
+    w_e = np.asarray(w_measured, float)
+    w_s = np.asarray(w_sim, float)
+    ok = np.abs(w_e) >= floor
+    return (w_s[ok] - w_e[ok]) / w_e[ok]
+
+
+def pme(w_measured, w_sim, floor: float = SPEED_FLOOR_RAD_S) -> float:
+    """Point mean error (eq. 12) in percent, over-predicting models positive.
+
+    The paper's text says "simulated subtracted from measured, such that overestimated models
+    are positive"; the two halves disagree in sign, and we keep the stated intent: a simulation
+    faster than the robot gives a positive PME:
+        PME = 100/N sum (w_s - w_e) / w_e.
+    Samples where the measured speed is below `floor` (the first instants after release,
+    where w_e ~ 0) are left out, since the ratio is undefined there."""
+    rel = relative_errors(w_measured, w_sim, floor)
+    return float(100.0 * np.mean(rel)) if rel.size else float("nan")
+
+
+def speed_errors(w_measured, w_sim, floor: float = SPEED_FLOOR_RAD_S) -> dict:
+    """Eq. 12's PME and two errors that cannot cancel, for one descent:
+    * `pme_percent`: eq. 12, the signed mean (`pme`);
+    * `mape_percent`: the mean ABSOLUTE point error, 100/N sum |w_s - w_e| / |w_e| over the same
+      samples.  Eq. 12 lets a model that runs fast early and slow late score near zero; this
+      one does not;
+    * `rmse_rad_s`: the RMS of w_s - w_e over the whole scored window (no floor), the quantity
+      the diagnosis fits."""
+    rel = relative_errors(w_measured, w_sim, floor)
+    w_e = np.asarray(w_measured, float)
+    w_s = np.asarray(w_sim, float)
+    nan = float("nan")
+    return {"pme_percent": float(100.0 * np.mean(rel)) if rel.size else nan,
+            "mape_percent": float(100.0 * np.mean(np.abs(rel))) if rel.size else nan,
+            "rmse_rad_s": float(np.sqrt(np.mean((w_s - w_e) ** 2))) if w_e.size else nan}
+
+
+# ---- model selection: BIC with correlated residuals -----------------------------------------
+def lag1(residuals: dict) -> float:
+    """Lag-1 autocorrelation of residuals (one array per release), pooled within releases."""
+    num = den = 0.0
+    for r in residuals.values():
+        r = r - np.mean(r)
+        num += float(np.sum(r[1:] * r[:-1]))
+        den += float(np.sum(r * r))
+    return num / den if den > 0 else 0.0
+
+
+def n_eff(n: int, rho: float) -> float:
+    """Effective number of independent samples of an AR(1) residual with lag-1 correlation rho."""
+    rho = min(max(rho, 0.0), 0.995)
+    return max(n * (1.0 - rho) / (1.0 + rho), 10.0)
+
+
+def bic(rss: float, n: int, k: int, neff: float) -> float:
+    """Bayesian information criterion of a least-squares fit (k parameters, n samples counted
+    as `neff` independent ones)."""
+    return neff * math.log(max(rss, 1e-300) / n) + k * math.log(neff)
+
+
+# ---- MCMC convergence ------------------------------------------------------------------------
+def burn_and_tau(chain: np.ndarray) -> tuple[int, np.ndarray]:
+    """Burn-in (5 tau from the second half, at most half the chain) and the integrated
+    autocorrelation time tau after it, per coordinate (chain: steps x walkers x ndim)."""
+    import emcee
+
+    n = chain.shape[0]
+    # A coordinate that has not moved yet (all walkers stuck, a very short chain) gives NaN:
+    # count it as correlated over the whole chain, i.e. not converged, rather than crash.
+    tau_half = np.nan_to_num(emcee.autocorr.integrated_time(chain[n // 2:], tol=0), nan=float(n))
+    burn = int(min(n // 2, math.ceil(5 * np.max(tau_half))))
+    tau = np.nan_to_num(emcee.autocorr.integrated_time(chain[burn:], tol=0), nan=float(n))
+    return burn, tau

@@ -1,0 +1,1 @@
+"""Reports for people: the parameter-uncertainty page and `roboball report --params`."""
