@@ -137,14 +137,9 @@ def _range_whisker(ax, x, low, high, capsize):
     ax.errorbar(x, 0.5 * (low + high), yerr=0.5 * abs(high - low), fmt="none", ecolor="k", capsize=capsize, lw=1)
 
 
-def fig13_14(summary: str, out13: str, out14: str, out_csv: str, out_md: str, campaign: str = "") -> None:
-    """Fig. 13 (PME per pressure and model, spread over runs, posterior intervals) and Fig. 14
-    (averaged over pressures); the PME table as CSV and Markdown."""
-    s = pd.read_csv(summary)
-    missing = sorted(SUMMARY_COLUMNS - set(s.columns))
-    if missing:
-        raise RoboballError(f"{summary}: missing column(s) {', '.join(missing)} (written by roboball.pipeline.simulation)")
-    contacts = [c for c in ["point", "injected", "hydroelastic", "diagnosed"] if c in set(s.contact)]
+def _pme_table(s: pd.DataFrame) -> pd.DataFrame:
+    """PME per (contact, pressure): mean, min, max over runs, the posterior interval where the
+    runs carry one, and the errors that cannot cancel (speed_errors), means over runs."""
     agg = s.groupby(["contact", "pressure_kpa"]).agg(pme_mean_percent=("pme_percent", "mean"),
                                                       pme_min_percent=("pme_percent", "min"),
                                                       pme_max_percent=("pme_percent", "max"),
@@ -153,11 +148,13 @@ def fig13_14(summary: str, out13: str, out14: str, out_csv: str, out_md: str, ca
         d = s.groupby(["contact", "pressure_kpa"]).agg(pme_post_low_percent=("pme_draw_low", "min"),
                                                         pme_post_high_percent=("pme_draw_high", "max")).reset_index()
         agg = agg.merge(d, on=["contact", "pressure_kpa"], how="left")
-    # errors that cannot cancel (speed_errors), means over runs
     d = s.groupby(["contact", "pressure_kpa"]).agg(mape_mean_percent=("mape_percent", "mean"),
                                                     rmse_mean_rad_s=("rmse_rad_s", "mean")).reset_index()
-    agg = agg.merge(d, on=["contact", "pressure_kpa"], how="left")
-    write_csv_atomic(agg, out_csv)
+    return agg.merge(d, on=["contact", "pressure_kpa"], how="left")
+
+
+def _fig13(s: pd.DataFrame, agg: pd.DataFrame, contacts: list, out: str, campaign: str) -> None:
+    """Fig. 13: PME bars per pressure and model, the runs as dots, posterior whiskers."""
     pressures = sorted(s.pressure_kpa.unique())
     # Two panels: every model, and below it the models within DETAIL_PERCENT of the recording,
     # whose differences (a few tenths of a percent) the full scale hides.
@@ -191,12 +188,11 @@ def fig13_14(summary: str, out13: str, out14: str, out_csv: str, out_md: str, ca
     ax.text(0.01, 0.98, "bars: mean of runs   dots: runs   whiskers: 95% over friction-posterior draws",
             transform=ax.transAxes, va="top", fontsize=8, color="0.3")
     ax.legend(fontsize=8)
-    save(fig, out13)
-    # Eq. 12's signed mean (the paper's Fig. 14), and beside it the mean |error| over the same
-    # samples, which cannot cancel: on a log scale, where the small errors are visible too
-    fig, (ax, ax_abs) = plt.subplots(1, 2, figsize=(10, 4), gridspec_kw={"width_ratios": [1.3, 1]})
-    per_run = s.groupby("contact").pme_percent
-    m = per_run.mean().reindex(contacts)
+    save(fig, out)
+
+
+def _fig14_signed(ax, s: pd.DataFrame, contacts: list, m: pd.Series) -> None:
+    """Eq. 12's signed mean over pressures (the paper's Fig. 14), its mean written on each bar."""
     ax.bar(range(len(contacts)), m.values, color=[CONTACT_COLOURS[c] for c in contacts], alpha=0.85)
     for i, c in enumerate(contacts):
         r = s[s.contact == c]
@@ -217,6 +213,11 @@ def fig13_14(summary: str, out13: str, out14: str, out_csv: str, out_md: str, ca
     ax.set_xticks(range(len(contacts)), contacts)
     ax.set_ylabel("drive-speed PME averaged over pressures (%)")
     ax.set_title("eq. 12 (signed): + = model too fast", fontsize=9)
+
+
+def _fig14_absolute(ax_abs, s: pd.DataFrame, contacts: list) -> None:
+    """The mean |point error| over the same samples, which cannot cancel, on a log scale where
+    the small errors are visible too."""
     mabs = s.groupby("contact").mape_percent.mean().reindex(contacts)
     shown = np.isfinite(mabs.values) & (mabs.values > 0)          # a log axis cannot show 0 or NaN
     ax_abs.bar(np.arange(len(contacts))[shown], mabs.values[shown],
@@ -237,8 +238,10 @@ def fig13_14(summary: str, out13: str, out14: str, out_csv: str, out_md: str, ca
     ax_abs.set_xticks(range(len(contacts)), contacts)
     ax_abs.set_ylabel("mean |point error| over pressures (%)")
     ax_abs.set_title("the same samples, absolute: errors cannot cancel", fontsize=9)
-    fig.suptitle(f"Fig. 14: averaged drive speed error{_of(campaign)}", fontsize=10)
-    save(fig, out14)
+
+
+def _pme_markdown(s: pd.DataFrame, agg: pd.DataFrame, contacts: list, m: pd.Series) -> str:
+    """The PME table for people: per (contact, pressure), then per contact over all runs."""
     lines = ["# Drive-speed point mean error (eq. 12), percent; + = model faster than the robot", "",
               "Eq. 12 is a signed mean: a model that runs fast early and slow late can score near zero. "
               "`mean |error|` is the same mean over the same samples of the absolute relative error, and "
@@ -257,7 +260,27 @@ def fig13_14(summary: str, out13: str, out14: str, out_csv: str, out_md: str, ca
               "|---|---|---|---|"]
     lines += [f"| {c} | {m[c]:.2f} | {overall.mape_percent[c]:.2f} | {overall.rmse_rad_s[c]:.4f} |"
               for c in contacts]
-    write_text_atomic(out_md, "\n".join(lines) + "\n")
+    return "\n".join(lines) + "\n"
+
+
+def fig13_14(summary: str, out13: str, out14: str, out_csv: str, out_md: str, campaign: str = "") -> None:
+    """Fig. 13 (PME per pressure and model, spread over runs, posterior intervals) and Fig. 14
+    (averaged over pressures); the PME table as CSV and Markdown."""
+    s = pd.read_csv(summary)
+    missing = sorted(SUMMARY_COLUMNS - set(s.columns))
+    if missing:
+        raise RoboballError(f"{summary}: missing column(s) {', '.join(missing)} (written by roboball.pipeline.simulation)")
+    contacts = [c for c in ["point", "injected", "hydroelastic", "diagnosed"] if c in set(s.contact)]
+    agg = _pme_table(s)
+    write_csv_atomic(agg, out_csv)
+    _fig13(s, agg, contacts, out13, campaign)
+    fig, (ax, ax_abs) = plt.subplots(1, 2, figsize=(10, 4), gridspec_kw={"width_ratios": [1.3, 1]})
+    m = s.groupby("contact").pme_percent.mean().reindex(contacts)
+    _fig14_signed(ax, s, contacts, m)
+    _fig14_absolute(ax_abs, s, contacts)
+    fig.suptitle(f"Fig. 14: averaged drive speed error{_of(campaign)}", fontsize=10)
+    save(fig, out14)
+    write_text_atomic(out_md, _pme_markdown(s, agg, contacts, m))
 
 
 def table2(out_csv: str, out_md: str, robot_yaml: str = "") -> None:
