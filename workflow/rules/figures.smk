@@ -1,20 +1,58 @@
-# Stage 5: paper figures and tables in paper_figures/ (PNG + PDF).
-PF = "paper_figures"
-FIGURES = [
-    f"{PF}/fig10_shell_dynamics.png", f"{PF}/fig11_hydro_sensitivity.png",
-    f"{PF}/fig13_ramp_pme.png", f"{PF}/fig14_ramp_pme_mean.png",
-    f"{PF}/table_pme.csv", f"{PF}/table_pme.md", f"{PF}/table_sweep.md", f"{PF}/table2_robot.md",
-]
+# Stage 5: the paper's figures and tables in paper_figures/ (PNG + PDF), in the paper's order:
+# Table I (friction), Table II (robot facts), Fig. 5, 7, 8 (friction), Fig. 10, 11 (shell),
+# Fig. 13, 14 (ramp), then the corner plots of every friction posterior.  (Fig. S1 is drawn by
+# the deflating-ramp simulation itself, simulate.smk.)
+
+
+rule table1:
+    input:
+        fits=fit_jsons(),
+        comparison="results/friction/testbed/steer_comparison.csv",
+    output:
+        csv=f"{PF}/table1_friction.csv",
+        md=f"{PF}/table1_friction.md",
+    params: code=CODE["table1"]
+    log: "results/logs/table1.log"
+    shell:
+        "{ROBOBALL} table1 --fits {input.fits} --comparison-csv {input.comparison} "
+        "--out-csv {output.csv} --out-md {output.md} > {log} 2>&1"
 
 
 rule table2:
-    input: robot=os.path.join(os.environ["ROBOBALL_CONFIG_DIR"], "robot.yaml")
+    input: robot=os.path.join(CONFIG_DIR, "robot.yaml")
     output:
         csv=f"{PF}/table2_robot.csv",
         md=f"{PF}/table2_robot.md",
     params: code=CODE["table2"]
     log: "results/logs/table2.log"
     shell: "{ROBOBALL} table2 --robot-yaml {input.robot} --out-csv {output.csv} --out-md {output.md} > {log} 2>&1"
+
+
+rule fig5:
+    input: fit_jsons("testbed")
+    output:
+        png=report(f"{PF}/fig5_friction_laws.png", category="2 Friction", caption="../report/fig5.rst"),
+        pdf=f"{PF}/fig5_friction_laws.pdf",
+    params: code=CODE["fig5"]
+    log: "results/logs/fig5.log"
+    shell: "{ROBOBALL} fig5 --fits {input} --out-png {output.png} > {log} 2>&1"
+
+
+rule fig_stand:
+    input:
+        unpack(get_stand_recording),
+        fits=get_stand_fits,
+    output:
+        png=report(f"{PF}/fig{{num}}_{{dataset}}_{{joint}}_fits.png", category="2 Friction", caption="../report/fig78.rst"),
+        pdf=f"{PF}/fig{{num}}_{{dataset}}_{{joint}}_fits.pdf",
+    params:
+        code=CODE["fig-stand-fits"],
+        title=lambda w: f"Fig. {w.num}: {w.joint} stand ({w.dataset}): data and fitted friction simulated in Drake",
+    wildcard_constraints: num="7|8", dataset="testbed|real", joint="steer|drive"
+    log: "results/logs/fig{num}_{dataset}_{joint}.log"
+    shell:
+        "{ROBOBALL} fig-stand-fits --recording {input.csv} --releases {input.releases} --fits {input.fits} "
+        "--title '{params.title}' --out-png {output.png} > {log} 2>&1"
 
 
 rule fig10:
@@ -68,19 +106,12 @@ rule fig13_14:
         "--out-csv {output.csv} --out-md {output.md} --campaign {params.campaign:q} > {log} 2>&1"
 
 
-rule replay:
-    input: regression="results/identify/shell_regression.csv"
-    output: report("results/replays/{scenario}.html", category="5 Replays", caption="../report/replay.rst")
-    params:
-        code=CODE["replay"],
-        contact=lambda w: REPLAYS[w.scenario][0],
-        release=lambda w: REPLAYS[w.scenario][1],
-        d=config["shell"]["carried_forward"]["dissipation_scale"],
-    log: "results/logs/replay/{scenario}.log"
-    benchmark: "results/benchmarks/replay/{scenario}.tsv"
-    shell:
-        "{ROBOBALL} replay --kind {wildcards.scenario} --contact {params.contact} --regression {input.regression} "
-        "--release {params.release} --dissipation-scale {params.d} --out-html {output} > {log} 2>&1"
-
-
-FIGURES += [f"results/replays/{s}.html" for s in REPLAYS]
+rule corner:
+    input: "results/friction/{dataset}/{joint}_{law}.json"
+    output:
+        png=report(f"{PF}/corner/corner_{{dataset}}_{{joint}}_{{law}}.png", category="2 Friction", caption="../report/corner.rst"),
+        pdf=f"{PF}/corner/corner_{{dataset}}_{{joint}}_{{law}}.pdf",
+    params: code=CODE["corner-plot"]
+    wildcard_constraints: dataset="testbed|real", joint="steer|drive", law="viscous|coulomb_viscous|majd"
+    log: "results/logs/corner/{dataset}_{joint}_{law}.log"
+    shell: "{ROBOBALL} corner-plot --fit {input} --out-png {output.png} > {log} 2>&1"

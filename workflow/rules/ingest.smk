@@ -1,12 +1,10 @@
 # Stage 1: validate and normalise every recording, find its releases, QC plot; decay per release.
-from pathlib import Path
 
 
 rule ingest:
     input:
         src=lambda w: REC[w.stem]["src"],
-        # the recording's sidecar (kind, pressure, ramp angle, ramp exit), when it has one
-        sidecar=lambda w: [s for s in [str(Path(REC[w.stem]["src"]).with_suffix(".json"))] if Path(s).is_file()],
+        sidecar=get_sidecar,
     output:
         csv="results/ingest/{stem}.csv",
         sidecar="results/ingest/{stem}.json",

@@ -1,0 +1,79 @@
+# Stage 4, beyond the paper (issue 6): `roboball diagnose` on the ramp runs, against the paper's
+# point model as this pipeline calibrates it (point contact, the Majd friction fitted on the stand
+# logs), and the diagnosed model as a fourth contact model, scored out of sample.  A ramp run holds
+# one descent, so the runs at one pressure are diagnosed together, each a release of the pooled
+# fit whose held-out test leaves one whole run out: `diagnose_ramp_pressure` (all runs at a
+# pressure, for the report) and `diagnose_ramp_heldout` (all but one run, whose effects score that
+# run in `ramp_diagnosed`).  The real logs are diagnosed one by one against the contract's
+# baselines (`diagnose`).
+
+
+rule diagnose:
+    input:
+        csv="results/ingest/{stem}.csv",
+        sidecar="results/ingest/{stem}.json",
+    output:
+        json="results/diagnose/{stem}/diagnosis.json",
+        predictions="results/diagnose/{stem}/predictions.csv",
+        report="results/diagnose/{stem}/report.md",
+        details="results/diagnose/{stem}/details.json",
+        figures=expand("results/diagnose/{{stem}}/{name}.png", name=("overlay", "regimes", "windows")),
+    params: code=CODE["diagnose-recording"]
+    wildcard_constraints: stem="[^/]+"
+    log: "results/logs/diagnose/{stem}.log"
+    benchmark: "results/benchmarks/diagnose/{stem}.tsv"
+    shell: "{ROBOBALL} diagnose-recording --recording {input.csv} --out-dir results/diagnose/{wildcards.stem} > {log} 2>&1"
+
+
+rule diagnose_ramp_pressure:
+    input:
+        unpack(get_runs_at_pressure),
+        **RAMP_FRICTION,
+    output:
+        json="results/diagnose/pressure/{group}/diagnosis.json",
+        predictions="results/diagnose/pressure/{group}/predictions.csv",
+        report="results/diagnose/pressure/{group}/report.md",
+        details="results/diagnose/pressure/{group}/details.json",
+        figures=expand("results/diagnose/pressure/{{group}}/{name}.png", name=("overlay", "regimes", "windows")),
+    params: code=CODE["diagnose-recording"]
+    log: "results/logs/diagnose/pressure/{group}.log"
+    benchmark: "results/benchmarks/diagnose/pressure/{group}.tsv"
+    shell:
+        "{ROBOBALL} diagnose-recording --recording {input.csv} --friction-steer {input.steer} "
+        "--friction-drive {input.drive} --out-dir results/diagnose/pressure/{wildcards.group} > {log} 2>&1"
+
+
+rule diagnose_ramp_heldout:
+    input:
+        unpack(get_other_runs),
+        **RAMP_FRICTION,
+    output:
+        json="results/diagnose/heldout/{stem}/diagnosis.json",
+        predictions="results/diagnose/heldout/{stem}/predictions.csv",
+        report="results/diagnose/heldout/{stem}/report.md",
+        details="results/diagnose/heldout/{stem}/details.json",
+        figures=expand("results/diagnose/heldout/{{stem}}/{name}.png", name=("overlay", "regimes", "windows")),
+    params: code=CODE["diagnose-recording"]
+    log: "results/logs/diagnose/heldout/{stem}.log"
+    benchmark: "results/benchmarks/diagnose/heldout/{stem}.tsv"
+    shell:
+        "{ROBOBALL} diagnose-recording --recording {input.csv} --friction-steer {input.steer} "
+        "--friction-drive {input.drive} --out-dir results/diagnose/heldout/{wildcards.stem} > {log} 2>&1"
+
+
+rule ramp_diagnosed:
+    input:
+        csv="results/ingest/{stem}.csv",
+        releases="results/ingest/{stem}.releases.json",
+        diagnoses="results/diagnose/heldout/{stem}/diagnosis.json",
+    output:
+        pme="results/ramp/diagnosed/{stem}.csv",
+        trace="results/ramp/diagnosed/{stem}.trace.csv",
+    params:
+        code=CODE["ramp-diagnosed"],
+        dt=config["ramp"]["dt_s"],
+    log: "results/logs/ramp/diagnosed/{stem}.log"
+    benchmark: "results/benchmarks/ramp/diagnosed/{stem}.tsv"
+    shell:
+        "{ROBOBALL} ramp-diagnosed --recording {input.csv} --releases {input.releases} --diagnoses {input.diagnoses} "
+        "--dt {params.dt} --out-csv {output.pme} --out-trace {output.trace} > {log} 2>&1"

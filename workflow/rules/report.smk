@@ -1,0 +1,25 @@
+# Stage 6: the reports.  The parameter-uncertainty report (HTML beside the paper figures) and the
+# Snakemake report's front page; each figure rule tags its own output for the Snakemake report
+# (`report(...)`, one caption per result in workflow/report/).
+
+report: "../report/workflow.rst"
+
+
+rule uncertainty_report:
+    input:
+        fits=fit_jsons(),
+        comparisons=friction_comparisons(),
+        regression="results/identify/shell_regression.csv",
+        pme=f"{PF}/table_pme.csv",
+        sweep=f"{PF}/table_sweep.md",
+        diagnoses=diagnosis_files("diagnosis.json"),
+        # read beside each diagnosis.json: the candidates supported by the data but below materiality
+        details=diagnosis_files("details.json"),
+        figures=report_figures(),
+    output: report(f"{PF}/uncertainty_report.html", category="0 Report", caption="../report/uncertainty.rst")
+    params: code=CODE["uncertainty-report"]
+    log: "results/logs/uncertainty_report.log"
+    shell:
+        "{ROBOBALL} uncertainty-report --fits {input.fits} --comparisons {input.comparisons} "
+        "--regression {input.regression} --pme-table {input.pme} --sweep-md {input.sweep} "
+        "--figures {input.figures} --diagnoses {input.diagnoses} --out-html {output} > {log} 2>&1"

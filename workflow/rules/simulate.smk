@@ -1,0 +1,141 @@
+# Stage 3: Drake simulations.  The shell released like each recording under every contact model,
+# with the hydroelastic sensitivity sweep (section III-D, Fig. 11); ramp descents of every contact
+# model for every recorded run, scored by PME (eq. 12), with the friction posteriors propagated
+# through the simulations; the interactive replays; and, beyond the paper (issue 9, Fig. S1), a
+# ramp descent while the shell deflates (roboball.sim.pressure; config section deflating_ramp).
+
+
+rule shell_sim:
+    input:
+        releases="results/ingest/{stem}.releases.json",
+        regression="results/identify/shell_regression.csv",
+    output: "results/shell_sim/{contact}/{stem}.csv"
+    params:
+        code=CODE["shell-sim"],
+        duration=config["shell"]["sim_duration_s"],
+        dt=config["shell"]["dt_s"],
+    wildcard_constraints: contact="point|injected|hydroelastic"
+    log: "results/logs/shell_sim/{contact}/{stem}.log"
+    benchmark: "results/benchmarks/shell_sim/{contact}/{stem}.tsv"
+    shell:
+        "{ROBOBALL} shell-sim --releases {input.releases} --regression {input.regression} --contact {wildcards.contact} "
+        "--duration {params.duration} --dt {params.dt} --out-csv {output} > {log} 2>&1"
+
+
+rule sweep_sim:
+    input:
+        releases="results/ingest/{stem}.releases.json",
+        regression="results/identify/shell_regression.csv",
+    output: "results/sweep/{case}/{stem}.csv"
+    params:
+        code=CODE["shell-sim"],
+        scales=lambda w: SWEEP[w.case],
+        duration=config["shell"]["sim_duration_s"],
+        dt=config["shell"]["dt_s"],
+    log: "results/logs/sweep/{case}/{stem}.log"
+    benchmark: "results/benchmarks/sweep/{case}/{stem}.tsv"
+    shell:
+        "{ROBOBALL} shell-sim --releases {input.releases} --regression {input.regression} --contact hydroelastic "
+        "--modulus-scale {params.scales[0]} --dissipation-scale {params.scales[1]} "
+        "--duration {params.duration} --dt {params.dt} --out-csv {output} > {log} 2>&1"
+
+
+rule shell_summary:
+    input:
+        sims=expand("results/shell_sim/{contact}/{stem}.csv", contact=CONTACTS, stem=SHELL),
+    output: "results/shell_sim/summary.csv"
+    params: code=CODE["summarise"]
+    log: "results/logs/shell_summary.log"
+    shell: "{ROBOBALL} summarise --inputs {input.sims} --out-csv {output} > {log} 2>&1"
+
+
+rule sweep_summary:
+    input:
+        expand("results/shell_sim/hydroelastic/{stem}.csv", stem=SHELL),
+        expand("results/sweep/{case}/{stem}.csv", case=list(SWEEP), stem=SHELL),
+    output: "results/sweep/summary.csv"
+    params: code=CODE["summarise"]
+    log: "results/logs/sweep_summary.log"
+    shell: "{ROBOBALL} summarise --inputs {input} --out-csv {output} > {log} 2>&1"
+
+
+rule ramp_sim:
+    input:
+        csv="results/ingest/{stem}.csv",
+        releases="results/ingest/{stem}.releases.json",
+        regression="results/identify/shell_regression.csv",
+        **RAMP_FRICTION,
+    output:
+        pme="results/ramp/{contact}/{stem}.csv",
+        trace="results/ramp/{contact}/{stem}.trace.csv",
+    params:
+        code=CODE["ramp-sim"],
+        scales=get_ramp_scales,
+        dt=config["ramp"]["dt_s"],
+        draws=config["ramp"]["posterior_draws"],
+        seed=config["seed"],
+    wildcard_constraints: contact="point|injected|hydroelastic"
+    log: "results/logs/ramp/{contact}/{stem}.log"
+    benchmark: "results/benchmarks/ramp/{contact}/{stem}.tsv"
+    shell:
+        "{ROBOBALL} ramp-sim --recording {input.csv} --releases {input.releases} --regression {input.regression} "
+        "--contact {wildcards.contact} --friction-steer {input.steer} --friction-drive {input.drive} "
+        "--modulus-scale {params.scales[0]} --dissipation-scale {params.scales[1]} --dt {params.dt} "
+        "--posterior-draws {params.draws} --seed {params.seed} --out-csv {output.pme} --out-trace {output.trace} > {log} 2>&1"
+
+
+# The paper's three contact models and the diagnosed fourth (diagnose.smk), side by side.
+rule ramp_summary:
+    input:
+        expand("results/ramp/{contact}/{stem}.csv", contact=RAMP_CONTACTS, stem=RAMP),
+        expand("results/ramp/diagnosed/{stem}.csv", stem=RAMP),
+    output: "results/ramp/summary.csv"
+    params: code=CODE["summarise"]
+    log: "results/logs/ramp_summary.log"
+    shell: "{ROBOBALL} summarise --inputs {input} --out-csv {output} > {log} 2>&1"
+
+
+rule replay:
+    input: regression="results/identify/shell_regression.csv"
+    output: report("results/replays/{scenario}.html", category="5 Replays", caption="../report/replay.rst")
+    params:
+        code=CODE["replay"],
+        contact=lambda w: REPLAYS[w.scenario][0],
+        release=lambda w: REPLAYS[w.scenario][1],
+        d=config["shell"]["carried_forward"]["dissipation_scale"],
+    log: "results/logs/replay/{scenario}.log"
+    benchmark: "results/benchmarks/replay/{scenario}.tsv"
+    shell:
+        "{ROBOBALL} replay --kind {wildcards.scenario} --contact {params.contact} --regression {input.regression} "
+        "--release {params.release} --dissipation-scale {params.d} --out-html {output} > {log} 2>&1"
+
+
+rule figS1_deflating_ramp:
+    input:
+        regression="results/identify/shell_regression.csv",
+        schedule=[DEFLATE_SCHEDULE["csv"]] if "csv" in DEFLATE_SCHEDULE else [],
+    output:
+        png=report(f"{PF}/figS1_deflating_ramp.png", category="6 Beyond the paper", caption="../report/figS1.rst"),
+        pdf=f"{PF}/figS1_deflating_ramp.pdf",
+        csv="results/deflating/figS1_traces.csv",
+    params:
+        code=CODE["deflating-ramp"],
+        schedule=schedule_args(DEFLATE_SCHEDULE),
+        duration=DEFLATE.get("duration_s", 3.0),
+        contacts=" ".join(DEFLATE.get("contact_models", ["injected", "hydroelastic"])),
+        geometry=DEFLATE.get("injected_geometry", "planar"),
+        hydro_update=DEFLATE.get("hydro_update_s", 0.05),
+        d=config["shell"]["carried_forward"]["dissipation_scale"],
+        m=config["shell"]["carried_forward"]["modulus_scale"],
+        dt=config["ramp"]["dt_s"],
+    resources:
+        mem_mb=2000,
+        runtime=15,
+        cpus_per_task=1,
+    log: "results/logs/figS1_deflating_ramp.log"
+    benchmark: "results/benchmarks/figS1_deflating_ramp.tsv"
+    shell:
+        "{ROBOBALL} deflating-ramp --regression {input.regression} {params.schedule} --duration {params.duration} "
+        "--contacts {params.contacts} --geometry {params.geometry} --hydro-update-s {params.hydro_update} "
+        "--dissipation-scale {params.d} --modulus-scale {params.m} --dt {params.dt} "
+        "--out-png {output.png} --out-csv {output.csv} > {log} 2>&1"
