@@ -14,13 +14,8 @@ from hypothesis import strategies as st
 from roboball.errors import RoboballError
 from roboball.ingest.importers import read_any
 from roboball.ingest.recording import Recording
-from roboball.ingest.releases import (
-    find_releases,
-    free_response,
-    recording_releases,
-    require_releases,
-    synthetic_release_log,
-)
+from roboball.ingest.releases import find_releases, recording_releases, require_releases
+from roboball.testbed.synthetic import free_response, synthetic_release_log
 
 REAL = Path(os.environ.get("ROBOBALL_REAL_DATA", Path(__file__).resolve().parents[2] / "shared" / "data" / "roboball_real"))
 STEER = REAL / "steering_static_stand_response.csv"
