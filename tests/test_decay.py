@@ -17,7 +17,7 @@ from roboball.identify.shell.decay import DECAY_COLUMNS, decay_table, extract_de
 from roboball.errors import RoboballError
 from roboball.ingest.importers import read_any
 from roboball.ingest.recording import Recording
-from roboball.ingest.releases import find_releases
+from roboball.ingest.releases.find import find_releases
 from roboball.testbed.synthetic import synthetic_release_log
 
 REAL = Path(os.environ.get("ROBOBALL_REAL_DATA", Path(__file__).resolve().parents[2] / "shared" / "data" / "roboball_real"))

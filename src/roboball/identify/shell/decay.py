@@ -37,7 +37,8 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from roboball.errors import RoboballError
-from roboball.ingest.releases import Release, prepare_signal, zigzag
+from roboball.ingest.releases.record import Release
+from roboball.ingest.releases.signal import prepare_signal, zigzag
 
 if TYPE_CHECKING:  # pragma: no cover
     from roboball.ingest.recording import Recording
@@ -507,7 +508,7 @@ def decay_table(recording: "Recording", releases: list[Release] | None = None, s
     releases raises a one-line RoboballError naming the file."""
     import pandas as pd
 
-    from roboball.ingest.releases import require_releases
+    from roboball.ingest.releases.find import require_releases
 
     if recording.kind == "ramp":
         raise RoboballError(
