@@ -182,7 +182,7 @@ def _shell_columns(path: Path, text: str, values: np.ndarray, line_numbers: np.n
             "the shell log's timestamp column must be integer nanoseconds",
         )
     # Integer nanoseconds up to ~9e15 are exact in float64; beyond that (epoch nanoseconds,
-    # ~1.7e18) the cells of the very rows parsed above are read again as Python integers.
+    # ~1.7e18) the cells of the very rows parse_numeric_csv read are read again as Python integers.
     if np.all(np.isfinite(raw)) and np.max(np.abs(raw)) < 2 ** 53:
         t_ns = raw.astype(np.int64)
     else:

@@ -29,7 +29,7 @@ def find_releases(
     hold_speed: float = 0.1,
     min_relative_offset: float = 0.05,
 ) -> list[Release]:
-    """Find the releases in one signal (see the module docstring for the method).
+    """Find the releases in one signal (the method: the docstring of roboball.ingest.releases).
 
     `kind` is a recording kind: steer_stand, drive_stand, shell_rock (hand releases and
     free oscillations) or ramp (one start of motion, ending at `ramp_exit_s` if given).

@@ -63,7 +63,7 @@ def _quantum(y: np.ndarray) -> float:
 
 def prepare_signal(t, y, grid_dt: float | None = None) -> PreparedSignal:
     """Drop non-finite samples and duplicate stamps, resample onto a uniform grid, smooth,
-    and estimate the noise level (see the module docstring)."""
+    and estimate the noise level (see roboball.ingest.releases)."""
     t = np.asarray(t, dtype=float)
     y = np.asarray(y, dtype=float)
     if t.shape != y.shape or t.ndim != 1:
