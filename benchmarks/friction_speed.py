@@ -28,7 +28,7 @@ import numpy as np
 def make(folder: Path, joint: str) -> tuple[Path, Path]:
     from roboball.atomic import write_json_atomic
     from roboball.ingest.recording import normalise, read_recording, write_recording
-    from roboball.ingest.releases import require_releases
+    from roboball.ingest.releases.find import require_releases
     from roboball.testbed.campaign import _rest_angle, release_recording
     from roboball.testbed.physics import load_truth, true_robot
     from roboball.testbed.sensors import measure

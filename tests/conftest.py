@@ -8,7 +8,7 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 
 def recording_error(read, path, **flags) -> str:
     """The one-line RecordingError message `read(path, **flags)` raises (fails if it raises none)."""
-    from roboball.ingest.recording import RecordingError
+    from roboball.ingest.errors import RecordingError
     with pytest.raises(RecordingError) as info:
         read(path, **flags)
     return str(info.value)

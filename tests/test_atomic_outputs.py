@@ -21,7 +21,8 @@ import pandas as pd
 import pytest
 
 from roboball.atomic import savefig_atomic, write_texts_atomic
-from roboball.ingest.recording import RecordingError, read_recording, write_recording
+from roboball.ingest.errors import RecordingError
+from roboball.ingest.recording import read_recording, write_recording
 
 REPO = Path(__file__).resolve().parents[1]
 SRC = REPO / "src" / "roboball"

@@ -13,11 +13,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from roboball.identify.shell.decay import DECAY_COLUMNS, decay_table, extract_decay, log_decrement_zeta
+from roboball.identify.shell.decay import DECAY_COLUMNS, decay_table, extract_decay
+from roboball.identify.shell.log_decrement import log_decrement_zeta
 from roboball.errors import RoboballError
 from roboball.ingest.importers import read_any
 from roboball.ingest.recording import Recording
-from roboball.ingest.releases import find_releases, synthetic_release_log
+from roboball.ingest.releases.find import find_releases
+from roboball.testbed.synthetic import synthetic_release_log
 
 REAL = Path(os.environ.get("ROBOBALL_REAL_DATA", Path(__file__).resolve().parents[2] / "shared" / "data" / "roboball_real"))
 STEER = REAL / "steering_static_stand_response.csv"
@@ -206,7 +208,7 @@ def _fd_delta_se(fit, h=1e-7):
 
 @pytest.mark.parametrize("zeta", [0.05, 0.3, 0.6])
 def test_omega_n_se_matches_finite_difference_delta_method(zeta):
-    from roboball.identify.shell.decay import DampedSineFit
+    from roboball.identify.shell.damped_sine import DampedSineFit
 
     rng = np.random.default_rng(int(zeta * 100))
     L = rng.normal(size=(5, 5)) * 0.01
@@ -232,7 +234,7 @@ def test_omega_n_se_of_a_real_fit_matches_finite_difference():
 
 def test_damped_sine_fit_residual_variance_uses_n_minus_5():
     """Tiny fit (9 points, 5 parameters): cov = s2 (J^T J)^-1 infl^2 with s2 = RSS / (n - 5)."""
-    from roboball.identify.shell.decay import damped_sine, fit_damped_sine
+    from roboball.identify.shell.damped_sine import damped_sine, fit_damped_sine
 
     truth = np.array([0.02, 1.0, 0.1, 3.0, -0.1])
     tau = np.linspace(0.0, 4.0, 9)

@@ -15,7 +15,8 @@ from roboball.diagnose.data import (Prepared, Window, _end_of_free_response, _fi
                                     _hold_releases, pool, prepare)
 from roboball.diagnose.locate import classify, locate
 from roboball.ingest.recording import Recording
-from roboball.ingest.releases import Release, free_response, synthetic_release_log
+from roboball.ingest.releases.record import Release
+from roboball.testbed.synthetic import free_response, synthetic_release_log
 
 DT = 1.0 / 64.0          # exact in binary: piece edges fall exactly on samples
 

@@ -11,7 +11,8 @@ import pytest
 
 from conftest import recording_error
 from roboball.ingest.importers import detect_format, import_native, read_any
-from roboball.ingest.recording import RecordingError, write_recording
+from roboball.ingest.errors import RecordingError
+from roboball.ingest.recording import write_recording
 
 REAL = Path(os.environ.get("ROBOBALL_REAL_DATA", Path(__file__).resolve().parents[2] / "shared" / "data" / "roboball_real"))
 STEER = REAL / "steering_static_stand_response.csv"

@@ -16,14 +16,10 @@ from hypothesis import strategies as st
 from conftest import recording_error
 from roboball.atomic import atomic_write, csv_text, json_dumps_stable, write_csv_atomic, write_json_atomic
 from roboball.errors import RoboballError
-from roboball.ingest.recording import (
-    KNOWN_SIGNALS,
-    RecordingError,
-    normalise,
-    read_recording,
-    sidecar_path,
-    write_recording,
-)
+from roboball.ingest.errors import RecordingError
+from roboball.ingest.recording import normalise, read_recording, write_recording
+from roboball.ingest.sidecar import sidecar_path
+from roboball.kinds import KNOWN_SIGNALS
 
 CORPUS = Path(__file__).parent / "bad_recordings"
 

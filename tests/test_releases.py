@@ -14,13 +14,8 @@ from hypothesis import strategies as st
 from roboball.errors import RoboballError
 from roboball.ingest.importers import read_any
 from roboball.ingest.recording import Recording
-from roboball.ingest.releases import (
-    find_releases,
-    free_response,
-    recording_releases,
-    require_releases,
-    synthetic_release_log,
-)
+from roboball.ingest.releases.find import find_releases, recording_releases, require_releases
+from roboball.testbed.synthetic import free_response, synthetic_release_log
 
 REAL = Path(os.environ.get("ROBOBALL_REAL_DATA", Path(__file__).resolve().parents[2] / "shared" / "data" / "roboball_real"))
 STEER = REAL / "steering_static_stand_response.csv"
@@ -259,7 +254,7 @@ def test_release_json_round_trip():
     import json
 
     from roboball.atomic import json_dumps_stable
-    from roboball.ingest.releases import Release
+    from roboball.ingest.releases.record import Release
 
     t = np.arange(0, 5, 0.01)
     (r,) = find_releases(t, np.where(t > 1, 2 * (t - 1), 0.0), "ramp")
@@ -398,7 +393,8 @@ def test_a_body_at_rest_stepping_by_a_few_mrad_makes_no_hold_inside_a_swing(nois
     than the noise (4 hysteresis steps): a body stuck off rest whose quantised reading steps
     down by 4 mrad, rests, and steps again (as the real steer-stand log does after its swings
     stop) makes none."""
-    from roboball.ingest.releases import _holds_inside_swings, prepare_signal, zigzag
+    from roboball.ingest.releases.holds import holds_inside_swings
+    from roboball.ingest.releases.signal import prepare_signal, zigzag
     rng = np.random.default_rng(seed)
     t = np.arange(0.0, 4.0, 0.0125)
     y = np.interp(t, [0, 1.0, 1.1, 1.5, 1.6, 2.5, 2.6, 4.0],
@@ -406,5 +402,5 @@ def test_a_body_at_rest_stepping_by_a_few_mrad_makes_no_hold_inside_a_swing(nois
     y = np.round((y + rng.normal(0, noise, t.size)) / 0.001) * 0.001
     sig = prepare_signal(t, y)
     ext = zigzag(sig.ys, sig.hysteresis)
-    out, inner = _holds_inside_swings(sig, ext, 0.25, 0.1)
+    out, inner = holds_inside_swings(sig, ext, 0.25, 0.1)
     assert inner == set() and list(out) == list(ext)

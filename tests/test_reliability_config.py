@@ -264,7 +264,7 @@ BAD_MANIFESTS = {  # case -> (lines, words of the error)
 
 @pytest.mark.parametrize("case", sorted(BAD_MANIFESTS))
 def test_bad_manifest_refused_in_one_line(tmp_path, case):
-    from roboball.checks import read_manifest
+    from roboball.ingest.manifest import read_manifest
     from roboball.errors import ConfigError
 
     lines, words = BAD_MANIFESTS[case]
@@ -276,7 +276,7 @@ def test_bad_manifest_refused_in_one_line(tmp_path, case):
 
 
 def test_manifest_reads_the_campaign():
-    from roboball.checks import read_manifest
+    from roboball.ingest.manifest import read_manifest
 
     m = read_manifest(REPO / "raw_data")
     assert len(m) == 22 and m["shell_rock_13.8kpa_r1"]["kind"] == "shell_rock"

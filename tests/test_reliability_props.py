@@ -22,7 +22,7 @@ from roboball.identify.shell.decay import decay_table
 from roboball.errors import RoboballError
 from roboball.ingest.importers import read_any
 from roboball.ingest.recording import Recording, normalise, write_recording
-from roboball.ingest.releases import synthetic_release_log
+from roboball.testbed.synthetic import synthetic_release_log
 
 MAIN = {"steer_stand": "steer_angle_rad", "drive_stand": "drive_angle_rad", "shell_rock": "pipe_angle_rad"}
 

@@ -11,7 +11,7 @@ import pytest
 from pydrake.math import RollPitchYaw, RotationMatrix
 
 from roboball.identify.shell.decay import extract_decay
-from roboball.ingest.releases import Release
+from roboball.ingest.releases.record import Release
 from roboball.sim.forces import Kin
 from roboball.sim.plant import ShellParams, SimSpec, build
 from roboball.sim.scenarios import simulate

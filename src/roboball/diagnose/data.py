@@ -54,7 +54,9 @@ from scipy.ndimage import maximum_filter1d, minimum_filter1d
 
 from roboball.errors import RoboballError
 from roboball.ingest.recording import Recording, normalise
-from roboball.ingest.releases import Release, prepare_signal, require_releases, zigzag
+from roboball.ingest.releases.find import require_releases
+from roboball.ingest.releases.record import Release
+from roboball.ingest.releases.signal import prepare_signal, zigzag
 
 PRE_S = 0.05
 RAMP_SMOOTH_S = 0.1

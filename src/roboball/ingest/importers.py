@@ -25,18 +25,11 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from roboball.ingest.recording import (
-    Recording,
-    _err,
-    _fields,
-    _read_sidecar,
-    _read_text,
-    _split_lines,
-    check_meta,
-    check_values,
-    parse_numeric_csv,
-    read_recording,
-)
+from roboball.ingest.csvtable import fields, parse_numeric_csv, read_text, split_lines
+from roboball.ingest.errors import recording_error
+from roboball.ingest.recording import Recording, read_recording
+from roboball.ingest.sidecar import read_sidecar
+from roboball.ingest.validate import check_meta, check_values
 
 __all__ = ["NATIVE_FORMATS", "detect_format", "import_native", "read_any"]
 
@@ -56,11 +49,11 @@ NATIVE_FORMATS = {
 
 
 def _header_of(path: Path) -> list[str]:
-    text = _read_text(path)
-    for line in _split_lines(text):
+    text = read_text(path)
+    for line in split_lines(text):
         if line.strip():
             return [h.strip() for h in next(csv.reader([line]))]
-    raise _err(path, "file", "empty file (no header, no data)")
+    raise recording_error(path, "file", "empty file (no header, no data)")
 
 
 def detect_format(path: str | Path) -> str:
@@ -73,7 +66,7 @@ def detect_format(path: str | Path) -> str:
     for name, spec in NATIVE_FORMATS.items():
         if header[: len(spec["columns"])] == list(spec["columns"]) or set(spec["columns"]) <= set(header):
             return name
-    raise _err(
+    raise recording_error(
         path, "line 1 (header)",
         f"not a recording (first column time_s) nor a known native log (columns: {', '.join(header)})",
         "expected time_s,...; steer_timestamp,pend_angle; or timestamp,ball_roll.position,ball_roll.velocity",
@@ -84,19 +77,19 @@ def _integer_cells(path: Path, text: str, line_numbers, j: int) -> np.ndarray:
     """Column `j` of the given (1-based) file lines as exact int64 (parse_numeric_csv reads
     floats, which hold integers only up to 2**53); a one-line error for a cell that is not an
     integer within int64."""
-    lines = _split_lines(text)
+    lines = split_lines(text)
     out = np.empty(len(line_numbers), dtype=np.int64)
     for r, n in enumerate(line_numbers):
         line = lines[int(n) - 1]
-        cell = _fields(line)[j].strip()
+        cell = fields(line)[j].strip()
         try:
             v = int(cell)
         except ValueError:
-            raise _err(path, f"line {int(n)}, column timestamp", f"{cell[:40]!r} is not an integer number of "
-                       "nanoseconds", "the shell log's timestamp column must be integer nanoseconds") from None
+            raise recording_error(path, f"line {int(n)}, column timestamp", f"{cell[:40]!r} is not an integer number of "
+                                  "nanoseconds", "the shell log's timestamp column must be integer nanoseconds") from None
         if not -2 ** 63 <= v < 2 ** 63:
-            raise _err(path, f"line {int(n)}, column timestamp", f"{cell[:40]} is beyond 64-bit integers",
-                       "the shell log's timestamp column must be integer nanoseconds")
+            raise recording_error(path, f"line {int(n)}, column timestamp", f"{cell[:40]} is beyond 64-bit integers",
+                                  "the shell log's timestamp column must be integer nanoseconds")
         out[r] = v
     return out
 
@@ -117,73 +110,18 @@ def import_native(
     path = Path(path)
     fmt = detect_format(path)
     if fmt == "recording":
-        raise _err(path, "line 1 (header)", "already a recording (first column time_s), not a native log",
-                   "read it with read_recording or read_any")
+        raise recording_error(path, "line 1 (header)", "already a recording (first column time_s), not a native log",
+                              "read it with read_recording or read_any")
     spec = NATIVE_FORMATS[fmt]
-    text = _read_text(path)
+    text = read_text(path)
     header, values, line_numbers = parse_numeric_csv(path, text)
     col = {name: header.index(name) for name in spec["columns"]}
-
-    sidecar, side = _read_sidecar(path)
-    meta: dict[str, Any] = dict(sidecar or {})
-    sources = {k: f"sidecar {side.name}" for k in meta}
-    for key, val in (("kind", kind), ("pressure_kpa", pressure_kpa),
-                     ("ramp_angle_deg", ramp_angle_deg), ("ramp_exit_s", ramp_exit_s)):
-        if val is not None:
-            meta[key] = val
-            sources[key] = "flag --" + key.replace("_", "-")
-    meta.setdefault("kind", spec["kind"])
-    if meta["kind"] not in spec["kinds"]:
-        raise _err(
-            path, "field kind",
-            f"a {fmt.replace('_', ' ')} can only be kind {' or '.join(spec['kinds'])}, not {meta['kind']!r}",
-            "drop --kind or use the matching log",
-        )
-
+    meta, sources = _meta(path, fmt, kind=kind, pressure_kpa=pressure_kpa, ramp_angle_deg=ramp_angle_deg,
+                          ramp_exit_s=ramp_exit_s)
     if fmt == "steer_log":
-        t = values[:, col["steer_timestamp"]]
-        if np.all(np.isfinite(t)) and np.nanmax(np.abs(t)) > 1e9:
-            raise _err(path, "column steer_timestamp", f"values up to {np.nanmax(np.abs(t)):.4g} are not seconds",
-                       "the steer log's timestamps must be in seconds")
-        offset = float(t[0])
-        time_s = t - offset
-        out_header = ["time_s", "steer_angle_rad"]
-        out = np.column_stack([time_s, values[:, col["pend_angle"]]])
-        meta["time_offset_s"] = offset
+        out_header, out = _steer_columns(path, values, col, meta)
     else:
-        raw = values[:, col["timestamp"]]
-        frac = np.nonzero(np.isfinite(raw) & (raw != np.round(raw)))[0]
-        if frac.size:
-            r = int(frac[0])
-            raise _err(
-                path, f"line {line_numbers[r]}, column timestamp",
-                f"{raw[r]:.9g} is not an integer number of nanoseconds",
-                "the shell log's timestamp column must be integer nanoseconds",
-            )
-        # Integer nanoseconds up to ~9e15 are exact in float64; beyond that (epoch nanoseconds,
-        # ~1.7e18) the cells of the very rows parsed above are read again as Python integers.
-        if np.all(np.isfinite(raw)) and np.max(np.abs(raw)) < 2 ** 53:
-            t_ns = raw.astype(np.int64)
-        else:
-            t_ns = _integer_cells(path, text, line_numbers, col["timestamp"])
-        steps = np.diff(t_ns)
-        pos = steps[steps > 0]
-        if pos.size and np.median(pos) < 1e3:
-            raise _err(
-                path, "column timestamp",
-                f"median step {np.median(pos):.4g} is far too small for nanoseconds",
-                "the shell log's timestamp column must be integer nanoseconds",
-            )
-        offset_ns = int(t_ns[0])
-        time_s = (t_ns - offset_ns).astype(float) * 1e-9
-        out_header = ["time_s", "pipe_angle_rad", "pipe_rate_rad_s"]
-        out = np.column_stack([time_s, values[:, col["ball_roll.position"]], values[:, col["ball_roll.velocity"]]])
-        meta["time_offset_ns"] = offset_ns
-        if meta.get("pressure_kpa") is None:
-            meta["pressure_kpa"] = None
-            meta["pressure_source"] = "unknown"
-        else:
-            meta.setdefault("pressure_source", sources.get("pressure_kpa", "sidecar").split(" ")[0])
+        out_header, out = _shell_columns(path, text, values, line_numbers, col, meta, sources)
     meta["source_format"] = fmt
     meta["source_file"] = path.name
 
@@ -192,6 +130,82 @@ def import_native(
     checked = check_meta(meta, path, sources, allow_unknown_pressure=True)
     data = pd.DataFrame({h: out[:, j] for j, h in enumerate(out_header)})
     return Recording(data=data, meta=checked, path=path)
+
+
+def _meta(path: Path, fmt: str, **flags: Any) -> tuple[dict[str, Any], dict[str, str]]:
+    """The native log's metadata: a sidecar beside it if there is one, overridden by the flags
+    that are not None, the format's kind by default.  Returns (meta, where each key came from)."""
+    spec = NATIVE_FORMATS[fmt]
+    sidecar, side = read_sidecar(path)
+    meta: dict[str, Any] = dict(sidecar or {})
+    sources = {k: f"sidecar {side.name}" for k in meta}
+    for key in ("kind", "pressure_kpa", "ramp_angle_deg", "ramp_exit_s"):
+        val = flags[key]
+        if val is not None:
+            meta[key] = val
+            sources[key] = "flag --" + key.replace("_", "-")
+    meta.setdefault("kind", spec["kind"])
+    if meta["kind"] not in spec["kinds"]:
+        raise recording_error(
+            path, "field kind",
+            f"a {fmt.replace('_', ' ')} can only be kind {' or '.join(spec['kinds'])}, not {meta['kind']!r}",
+            "drop --kind or use the matching log",
+        )
+    return meta, sources
+
+
+def _steer_columns(path: Path, values: np.ndarray, col: dict[str, int], meta: dict) -> tuple[list[str], np.ndarray]:
+    """The steer log as (header, values) of a recording; its time offset goes into `meta`."""
+    t = values[:, col["steer_timestamp"]]
+    if np.all(np.isfinite(t)) and np.nanmax(np.abs(t)) > 1e9:
+        raise recording_error(path, "column steer_timestamp", f"values up to {np.nanmax(np.abs(t)):.4g} are not seconds",
+                              "the steer log's timestamps must be in seconds")
+    offset = float(t[0])
+    time_s = t - offset
+    out_header = ["time_s", "steer_angle_rad"]
+    out = np.column_stack([time_s, values[:, col["pend_angle"]]])
+    meta["time_offset_s"] = offset
+    return out_header, out
+
+
+def _shell_columns(path: Path, text: str, values: np.ndarray, line_numbers: np.ndarray, col: dict[str, int],
+                   meta: dict, sources: dict[str, str]) -> tuple[list[str], np.ndarray]:
+    """The shell log as (header, values) of a recording, its integer-nanosecond stamps turned into
+    seconds from the first sample; the offset and where the pressure came from go into `meta`."""
+    raw = values[:, col["timestamp"]]
+    frac = np.nonzero(np.isfinite(raw) & (raw != np.round(raw)))[0]
+    if frac.size:
+        r = int(frac[0])
+        raise recording_error(
+            path, f"line {line_numbers[r]}, column timestamp",
+            f"{raw[r]:.9g} is not an integer number of nanoseconds",
+            "the shell log's timestamp column must be integer nanoseconds",
+        )
+    # Integer nanoseconds up to ~9e15 are exact in float64; beyond that (epoch nanoseconds,
+    # ~1.7e18) the cells of the very rows parse_numeric_csv read are read again as Python integers.
+    if np.all(np.isfinite(raw)) and np.max(np.abs(raw)) < 2 ** 53:
+        t_ns = raw.astype(np.int64)
+    else:
+        t_ns = _integer_cells(path, text, line_numbers, col["timestamp"])
+    steps = np.diff(t_ns)
+    pos = steps[steps > 0]
+    if pos.size and np.median(pos) < 1e3:
+        raise recording_error(
+            path, "column timestamp",
+            f"median step {np.median(pos):.4g} is far too small for nanoseconds",
+            "the shell log's timestamp column must be integer nanoseconds",
+        )
+    offset_ns = int(t_ns[0])
+    time_s = (t_ns - offset_ns).astype(float) * 1e-9
+    out_header = ["time_s", "pipe_angle_rad", "pipe_rate_rad_s"]
+    out = np.column_stack([time_s, values[:, col["ball_roll.position"]], values[:, col["ball_roll.velocity"]]])
+    meta["time_offset_ns"] = offset_ns
+    if meta.get("pressure_kpa") is None:
+        meta["pressure_kpa"] = None
+        meta["pressure_source"] = "unknown"
+    else:
+        meta.setdefault("pressure_source", sources.get("pressure_kpa", "sidecar").split(" ")[0])
+    return out_header, out
 
 
 def read_any(path: str | Path, **flags: Any) -> Recording:

@@ -38,7 +38,7 @@ def ingest(src: str, out_csv: str, out_releases: str, qc_png: str, kind: str = "
         flags["pressure_kpa"] = pressure
     rec = normalise(read_any(src, **flags))
     # Imported only once the file is known to be good, so bad input fails fast (scipy is slow to load).
-    from roboball.ingest.releases import require_releases
+    from roboball.ingest.releases.find import require_releases
 
     rels = require_releases(rec)
     write_recording(out_csv, rec)
@@ -49,7 +49,7 @@ def ingest(src: str, out_csv: str, out_releases: str, qc_png: str, kind: str = "
 
 
 def _releases(path):
-    from roboball.ingest.releases import Release
+    from roboball.ingest.releases.record import Release
     with open(path, encoding="utf-8") as fh:
         data = json.load(fh)
     return [Release(**r) for r in data["releases"]]

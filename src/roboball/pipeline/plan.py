@@ -35,9 +35,9 @@ class Campaign:
     @classmethod
     def from_config(cls, config: dict) -> "Campaign":
         """The campaign of the workflow's config: the manifest of `raw_data` (checked by
-        roboball.checks.read_manifest) and the real logs of `real_data`.  `enabled: auto` takes
+        roboball.ingest.manifest.read_manifest) and the real logs of `real_data`.  `enabled: auto` takes
         them when their folder exists; `enabled: true` requires it (a one-line ConfigError)."""
-        from roboball.checks import read_manifest
+        from roboball.ingest.manifest import read_manifest
 
         recordings = read_manifest(config["raw_data"])
         real = config["real_data"]

@@ -37,7 +37,7 @@ def shell_sim(releases: str, regression: str, contact: str, out_csv: str, modulu
     """Release the locked-steer Drake model like each recorded release; extract its decay with
     the same code as the data.  One row per release."""
     from roboball.identify.shell.decay import extract_decay
-    from roboball.ingest.releases import Release
+    from roboball.ingest.releases.record import Release
     from roboball.sim.plant import ShellParams, SimSpec
     from roboball.sim.scenarios import simulate
 

@@ -131,7 +131,7 @@ def segments_from_arrays(data: Sequence, source: str = "data") -> list[Segment]:
     """Segments from a list of ``(t, y, release)`` triples.
 
     `release` is the release time (float), or a mapping / object with ``t_release_s`` (and
-    optionally ``t_end_s``, ``y_release``; :class:`roboball.ingest.releases.Release` works).  Samples
+    optionally ``t_end_s``, ``y_release``; :class:`roboball.ingest.releases.record.Release` works).  Samples
     before the release and after ``t_end_s`` are dropped; the release angle defaults to the
     measured angle interpolated at the release time.  Several triples may share one (t, y).
     """

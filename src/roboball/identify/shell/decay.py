@@ -26,33 +26,27 @@ is far less sensitive to noise and 1-mrad quantisation, and it gives standard er
   first and the last cycles separately (zeta_early / zeta_late).  Viscous damping gives
   equal values; dry (Coulomb) friction makes zeta_late > zeta_early, because its amplitude
   falls linearly, not geometrically.
+
+The model and its fit live in ``damped_sine``, the log decrement in ``log_decrement``.
 """
 from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, field
-from typing import TYPE_CHECKING, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from roboball.errors import RoboballError
-from roboball.ingest.releases import Release, prepare_signal, zigzag
+from roboball.identify.shell.damped_sine import DampedSineFit, fit_damped_sine
+from roboball.identify.shell.log_decrement import log_decrement_zeta, refine_extrema
+from roboball.ingest.releases.record import Release
+from roboball.ingest.releases.signal import prepare_signal, zigzag
 
 if TYPE_CHECKING:  # pragma: no cover
     from roboball.ingest.recording import Recording
 
-__all__ = [
-    "DampedSineFit",
-    "DecayResult",
-    "damped_sine",
-    "fit_damped_sine",
-    "extract_decay",
-    "decay_table",
-    "log_decrement_zeta",
-    "refine_extrema",
-    "DECAY_COLUMNS",
-]
+__all__ = ["DECAY_COLUMNS", "DecayResult", "extract_decay", "decay_table"]
 
 DECAY_COLUMNS = [
     "release", "t_release_s", "t_fit_start_s", "t_fit_end_s", "kind", "pressure_kpa",
@@ -62,193 +56,6 @@ DECAY_COLUMNS = [
 ]
 
 
-def damped_sine(tau, rest: float, amplitude: float, zeta: float, omega_d: float, phase: float) -> np.ndarray:
-    """rest + amplitude exp(-zeta omega_n tau) cos(omega_d tau + phase)."""
-    tau = np.asarray(tau, dtype=float)
-    decay = zeta * omega_d / math.sqrt(1.0 - zeta * zeta)
-    return rest + amplitude * np.exp(-decay * tau) * np.cos(omega_d * tau + phase)
-
-
-@dataclass
-class DampedSineFit:
-    """Least-squares fit of :func:`damped_sine`; parameter order
-    (rest, amplitude, zeta, omega_d, phase).  `cov` is already inflated for residual
-    autocorrelation."""
-
-    t0: float
-    params: np.ndarray
-    cov: np.ndarray
-    rmse: float
-    n: int
-    rho1: float
-    inflation: float
-    success: bool
-    message: str = ""
-
-    names = ("rest", "amplitude", "zeta", "omega_d", "phase")
-
-    def __call__(self, t) -> np.ndarray:
-        return damped_sine(np.asarray(t, dtype=float) - self.t0, *self.params)
-
-    def value(self, name: str) -> float:
-        return float(self.params[self.names.index(name)])
-
-    def se(self, name: str) -> float:
-        i = self.names.index(name)
-        v = self.cov[i, i]
-        return float(math.sqrt(v)) if np.isfinite(v) and v >= 0 else float("nan")
-
-    @property
-    def zeta(self) -> float:
-        return self.value("zeta")
-
-    @property
-    def omega_d(self) -> float:
-        return self.value("omega_d")
-
-    @property
-    def omega_n(self) -> float:
-        z = self.zeta
-        return self.omega_d / math.sqrt(1.0 - z * z)
-
-    @property
-    def omega_n_se(self) -> float:
-        """Delta method: omega_n = omega_d / sqrt(1 - zeta^2)."""
-        z, wd = self.zeta, self.omega_d
-        g = np.zeros(5)
-        g[2] = wd * z / (1.0 - z * z) ** 1.5
-        g[3] = 1.0 / math.sqrt(1.0 - z * z)
-        v = float(g @ self.cov @ g)
-        return math.sqrt(v) if v >= 0 and np.isfinite(v) else float("nan")
-
-    @property
-    def decay_rate(self) -> float:
-        """zeta omega_n (1/s): the envelope's exponential rate."""
-        return self.zeta * self.omega_n
-
-    def envelope(self, t) -> np.ndarray:
-        tau = np.asarray(t, dtype=float) - self.t0
-        return abs(self.value("amplitude")) * np.exp(-self.decay_rate * tau)
-
-
-def _residual_lag1(r: np.ndarray) -> float:
-    if len(r) < 3:
-        return 0.0
-    r = r - r.mean()
-    den = float(r @ r)
-    if den <= 0:
-        return 0.0
-    return float(r[:-1] @ r[1:]) / den
-
-
-def fit_damped_sine(t, y, t0: float, p0: Sequence[float], max_zeta: float = 0.95) -> DampedSineFit:
-    """Fit rest + A exp(-zeta omega_n (t - t0)) cos(omega_d (t - t0) + phase) to (t, y)
-    starting from p0 = (rest, A, zeta, omega_d, phase); analytic Jacobian, trust-region
-    least squares with zeta in [0, max_zeta] and omega_d > 0."""
-    t = np.asarray(t, dtype=float)
-    y = np.asarray(y, dtype=float)
-    tau = t - t0
-
-    def parts(p):
-        rest, amp, zeta, wd, ph = p
-        sq = math.sqrt(1.0 - zeta * zeta)
-        sig = zeta * wd / sq
-        e = np.exp(-sig * tau)
-        arg = wd * tau + ph
-        c, s = np.cos(arg), np.sin(arg)
-        return rest, amp, zeta, wd, sq, sig, e, c, s
-
-    def fun(p):
-        rest, amp, _, _, _, _, e, c, _ = parts(p)
-        return rest + amp * e * c - y
-
-    def jac(p):
-        rest, amp, zeta, wd, sq, sig, e, c, s = parts(p)
-        dsig_dz = wd / sq ** 3
-        dsig_dw = zeta / sq
-        J = np.empty((len(tau), 5))
-        J[:, 0] = 1.0
-        J[:, 1] = e * c
-        J[:, 2] = -amp * e * c * tau * dsig_dz
-        J[:, 3] = amp * e * (-tau * dsig_dw * c - tau * s)
-        J[:, 4] = -amp * e * s
-        return J
-
-    p0 = np.array(p0, dtype=float)
-    p0[2] = min(max(p0[2], 1e-4), max_zeta - 1e-3)
-    p0[3] = max(p0[3], 1e-3)
-    lower = [-np.inf, -np.inf, 0.0, 1e-6, -np.inf]
-    upper = [np.inf, np.inf, max_zeta, np.inf, np.inf]
-    res = least_squares(fun, p0, jac=jac, bounds=(lower, upper), x_scale="jac", method="trf",
-                        xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=2000)
-    p = res.x.copy()
-    # Canonical form: positive amplitude, phase in (-pi, pi].
-    if p[1] < 0:
-        p[1] = -p[1]
-        p[4] += math.pi
-    p[4] = math.atan2(math.sin(p[4]), math.cos(p[4]))
-    r = fun(p)
-    n = len(r)
-    dof = max(n - 5, 1)
-    s2 = float(r @ r) / dof
-    J = jac(p)
-    try:
-        cov = np.linalg.inv(J.T @ J) * s2
-    except np.linalg.LinAlgError:
-        cov = np.full((5, 5), np.nan)
-    rho = _residual_lag1(r)
-    rho_c = min(max(rho, 0.0), 0.99)
-    infl = math.sqrt((1.0 + rho_c) / (1.0 - rho_c))
-    cov = cov * infl ** 2
-    return DampedSineFit(t0=float(t0), params=p, cov=cov, rmse=float(math.sqrt(float(r @ r) / n)),
-                         n=n, rho1=rho, inflation=infl, success=bool(res.success), message=str(res.message))
-
-
-# --------------------------------------------------------------------------------------
-# Peaks and log decrement
-# --------------------------------------------------------------------------------------
-def refine_extrema(t: np.ndarray, y: np.ndarray, t_guess: Sequence[float], half_width: float) -> list[tuple[float, float]]:
-    """Refine turning points: fit a parabola to the raw samples within +-half_width of
-    each guessed time and return its vertex (t, y); guesses without a proper vertex in the
-    window are skipped."""
-    out = []
-    for tg in t_guess:
-        m = (t >= tg - half_width) & (t <= tg + half_width)
-        if m.sum() < 5:
-            continue
-        tt = t[m] - tg
-        a, b, c = np.polyfit(tt, y[m], 2)
-        if a == 0:
-            continue
-        tv = -b / (2 * a)
-        if abs(tv) > half_width:
-            continue
-        out.append((float(tg + tv), float(c - b * b / (4 * a))))
-    return out
-
-
-def log_decrement_zeta(extrema_values: Sequence[float]) -> float:
-    """Damping ratio from successive turning points by the logarithmic decrement.
-
-    Uses peak-to-peak swings h_k = |E_{k+1} - E_k| (independent of the rest level); for a
-    viscous oscillator they shrink by exp(-delta/2) per half cycle.  delta is the slope of a
-    least-squares line through ln h_k, and zeta = delta / sqrt(4 pi^2 + delta^2).
-    Needs at least three turning points; returns NaN otherwise."""
-    e = np.asarray(extrema_values, dtype=float)
-    if len(e) < 3:
-        return float("nan")
-    h = np.abs(np.diff(e))
-    if np.any(h <= 0):
-        return float("nan")
-    k = np.arange(len(h))
-    slope = np.polyfit(k, np.log(h), 1)[0]
-    delta = -2.0 * slope
-    return float(delta / math.sqrt(4 * math.pi ** 2 + delta ** 2))
-
-
-# --------------------------------------------------------------------------------------
-# One release
-# --------------------------------------------------------------------------------------
 @dataclass
 class DecayResult:
     """Damping and frequency of one free response (see the module docstring).
@@ -379,16 +186,7 @@ def extract_decay(
     (default: the release detector's estimate).  Raises RoboballError if the window holds
     too little of an oscillation to fit.
     """
-    t = np.asarray(t, dtype=float)
-    y = np.asarray(y, dtype=float)
-    ok = np.isfinite(t) & np.isfinite(y)
-    t, y = t[ok], y[ok]
-    order = np.argsort(t, kind="stable")
-    t, y = t[order], y[order]
-    keep = np.ones(len(t), dtype=bool)
-    keep[1:] = np.diff(t) > 0
-    t, y = t[keep], y[keep]
-
+    t, y = _distinct_samples(t, y)
     t_rel = float(release.t_release_s)
     t_stop = float(release.t_end_s if t_end_s is None else min(t_end_s, release.t_end_s))
     if noise is None:
@@ -409,25 +207,65 @@ def extract_decay(
     # Released from rest: y(0) = rest + offset, y'(0) = 0  =>  phase = -asin(zeta).
     phase0 = -math.asin(zeta0)
     amp0 = offset0 / math.cos(phase0)
+    window = _Window(t_rel=t_rel, t_stop=t_stop, delay=delay, noise=noise, stop_noise=stop_noise,
+                     max_cycles=max_cycles)
+    fit, m = _fit_in_window(t, y, window, (rest0, amp0, zeta0, wd0, phase0))
+    tf, yf = t[m], y[m]
+    return _result(t_rel, tf, fit, _turning_points(tf, yf, fit, noise))
 
-    def window_end(amp: float, decay_rate: float, wd: float) -> float:
-        end = t_stop
-        if decay_rate > 0 and abs(amp) > stop_noise * noise:
-            end = min(end, t_rel + math.log(abs(amp) / (stop_noise * noise)) / decay_rate)
-        if max_cycles is not None:
-            end = min(end, t_rel + delay + max_cycles * 2 * math.pi / wd)
+
+def _distinct_samples(t, y) -> tuple[np.ndarray, np.ndarray]:
+    """The finite samples in time order, the first of each duplicate stamp only."""
+    t = np.asarray(t, dtype=float)
+    y = np.asarray(y, dtype=float)
+    ok = np.isfinite(t) & np.isfinite(y)
+    t, y = t[ok], y[ok]
+    order = np.argsort(t, kind="stable")
+    t, y = t[order], y[order]
+    keep = np.ones(len(t), dtype=bool)
+    keep[1:] = np.diff(t) > 0
+    return t[keep], y[keep]
+
+
+@dataclass(frozen=True)
+class _Window:
+    """Where the fit looks: from `delay` after the release instant `t_rel` to `t_stop`, ending
+    earlier where the fitted envelope falls below `stop_noise` noise levels or after
+    `max_cycles` cycles."""
+
+    t_rel: float
+    t_stop: float
+    delay: float
+    noise: float
+    stop_noise: float
+    max_cycles: float | None
+
+    def end(self, amp: float, decay_rate: float, wd: float) -> float:
+        """The window's end for a fit of amplitude `amp`, envelope rate `decay_rate` and
+        angular frequency `wd`."""
+        end = self.t_stop
+        if decay_rate > 0 and abs(amp) > self.stop_noise * self.noise:
+            end = min(end, self.t_rel + math.log(abs(amp) / (self.stop_noise * self.noise)) / decay_rate)
+        if self.max_cycles is not None:
+            end = min(end, self.t_rel + self.delay + self.max_cycles * 2 * math.pi / wd)
         return end
 
-    p0 = (rest0, amp0, zeta0, wd0, phase0)
+
+def _fit_in_window(t: np.ndarray, y: np.ndarray, window: _Window, p0: tuple) -> tuple[DampedSineFit, np.ndarray]:
+    """Fit the damped sine from `p0`, moving the window's end to where the fit's envelope puts
+    it until it settles (at most 3 passes), then once more on the final window.  Returns the
+    fit and the mask of the samples it used."""
+    t_rel, t_stop, delay = window.t_rel, window.t_stop, window.delay
+    _, amp0, zeta0, wd0, _ = p0
     decay0 = zeta0 * wd0 / math.sqrt(1 - zeta0 ** 2)
-    t_hi = window_end(amp0, decay0, wd0)
+    t_hi = window.end(amp0, decay0, wd0)
     fit = None
     for _ in range(3):
         m = (t >= t_rel + delay) & (t <= t_hi)
         if m.sum() < 12:
             m = (t >= t_rel + delay) & (t <= t_stop)
         fit = fit_damped_sine(t[m], y[m], t_rel, p0)
-        new_hi = window_end(fit.value("amplitude"), fit.decay_rate, fit.omega_d)
+        new_hi = window.end(fit.value("amplitude"), fit.decay_rate, fit.omega_d)
         p0 = tuple(fit.params)
         if abs(new_hi - t_hi) < 0.25 * 2 * math.pi / fit.omega_d:
             t_hi = new_hi
@@ -436,13 +274,14 @@ def extract_decay(
     m = (t >= t_rel + delay) & (t <= t_hi)
     if m.sum() >= 12 and m.sum() != fit.n:
         fit = fit_damped_sine(t[m], y[m], t_rel, p0)
-    tf, yf = t[m], y[m]
+    return fit, m
 
-    # Log-decrement cross-checks on the turning points of the data inside the window:
-    # found on the smoothed signal (zig-zag with a noise hysteresis), refined by a local
-    # parabola through the raw samples.
-    wd, z = fit.omega_d, fit.zeta
-    ph = fit.value("phase")
+
+def _turning_points(tf: np.ndarray, yf: np.ndarray, fit: DampedSineFit, noise: float) -> list[tuple[float, float]]:
+    """The turning points (t, y) of the data inside the fit window: found on the smoothed
+    signal (zig-zag with a noise hysteresis), refined by a local parabola through the raw
+    samples; those at the window's edges, or within 10 noise levels of rest, are dropped."""
+    wd = fit.omega_d
     rest_fit = fit.value("rest")
     ext: list[tuple[float, float]] = []
     try:
@@ -458,8 +297,15 @@ def extract_decay(
         pass
     # Turning points at the window's edges are cut off, not turning points of the data.
     edge = 0.1 * 2 * math.pi / wd
-    ext = [(te, ye) for te, ye in ext
-           if abs(ye - rest_fit) > 10 * noise and tf[0] + edge <= te <= tf[-1] - edge]
+    return [(te, ye) for te, ye in ext
+            if abs(ye - rest_fit) > 10 * noise and tf[0] + edge <= te <= tf[-1] - edge]
+
+
+def _result(t_rel: float, tf: np.ndarray, fit: DampedSineFit, ext: list[tuple[float, float]]) -> DecayResult:
+    """The DecayResult of `fit` on the window's times `tf`, with the log-decrement
+    cross-checks over all turning points `ext` and over the first and the last few."""
+    wd, z = fit.omega_d, fit.zeta
+    ph = fit.value("phase")
     vals = [ye for _, ye in ext]
     zeta_logdec = log_decrement_zeta(vals)
     n_e = len(vals)
@@ -507,7 +353,7 @@ def decay_table(recording: "Recording", releases: list[Release] | None = None, s
     releases raises a one-line RoboballError naming the file."""
     import pandas as pd
 
-    from roboball.ingest.releases import require_releases
+    from roboball.ingest.releases.find import require_releases
 
     if recording.kind == "ramp":
         raise RoboballError(
