@@ -12,7 +12,7 @@ import pytest
 
 from roboball.cli.main import main as cli_main
 from roboball.diagnose import diagnose
-from roboball.diagnose.decide import Settings
+from roboball.diagnose.scored import Settings
 
 REPO = Path(__file__).resolve().parents[1]
 BAD = REPO / "tests" / "bad_recordings"

@@ -13,9 +13,10 @@ import pandas as pd
 import pytest
 
 from roboball.cli.main import main as cli_main
-from roboball.diagnose import diagnose, read_friction
+from roboball.diagnose import diagnose
+from roboball.identify.friction.results import read_friction
 from roboball.diagnose.data import pool, prepare, read
-from roboball.diagnose.decide import Selector
+from roboball.diagnose.select import Selector
 from roboball.errors import RoboballError
 from roboball.pipeline import diagnosis as D
 from roboball.pipeline.ident import ingest
@@ -194,7 +195,7 @@ def test_the_hidden_pair_is_named_and_a_drag_below_materiality_is_reported_with_
     mean square by less than the 4 noise variances materiality asks: it is not added (the
     contract's missing_physics lists only the model's effects), but the report, details.json
     and the pipeline's uncertainty report show it with its interval and why it was refused."""
-    from roboball.diagnose.decide import immaterial
+    from roboball.diagnose.keep import immaterial
     from roboball.report.uncertainty import _immaterial
 
     out = tmp_path / "d"
@@ -225,7 +226,7 @@ def test_the_hidden_pair_is_named_and_a_drag_below_materiality_is_reported_with_
 
 
 def test_immaterial_lists_only_the_stopping_rounds_candidates_refused_for_materiality_alone():
-    from roboball.diagnose.decide import immaterial
+    from roboball.diagnose.keep import immaterial
 
     kept = {"effect": "viscous_damping", "kept": True, "failed": []}
     small = {"effect": "rolling_resistance", "kept": False, "failed": ["material"]}

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from roboball.reduced.batched import StandModel, hermite, model_for
-from roboball.diagnose.report import RAMP_EXPLAINS, _heldout_note, _param_cells, baseline_fitted, diagnosis_json
+from roboball.diagnose.contract import RAMP_EXPLAINS, baseline_fitted, diagnosis_json
+from roboball.diagnose.markdown import _heldout_note, _param_cells
 from roboball.physics import effects as fx
 
 

@@ -10,7 +10,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from roboball.diagnose.decide import Scored, Selector, Settings
+from roboball.diagnose.scored import Scored, Settings
+from roboball.diagnose.select import Selector
 from roboball.metrics import bic, n_eff
 from roboball.diagnose.fit import Problem
 from roboball.physics import effects as fx

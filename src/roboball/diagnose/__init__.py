@@ -5,15 +5,16 @@ the baseline leaves out, model it, and show the fit improve (issue 6; contract
     from roboball.diagnose import diagnose
     d, js = diagnose("raw_data/steer_stand/steer_stand_r1.csv", out_dir="results/diagnose/steer")
 
-Modules: data (fit windows of the releases), models and roboball.reduced.ramp (fast batched
-reduced models), fit (batched Levenberg-Marquardt by simulation error), decide (greedy forward
-selection with held-out validation and BIC), locate (residual by time window and regime),
-drake (the augmented model as a Drake force element), report (diagnosis.json, report.md,
-figures), cli (`roboball diagnose`).  The effect library itself is roboball.physics.effects.
+Modules, in the order a diagnosis runs: data (fit windows of the releases; the fast batched
+reduced models are roboball.reduced.batched and roboball.reduced.ramp), fit (batched
+Levenberg-Marquardt by simulation error), scored (the selection's settings and scored models),
+keep (the keep rule: BIC, held-out error, materiality, 95% intervals), select (greedy forward
+selection with backward and swap passes, and the verdict), locate (residual by time window and
+regime), drake (the augmented model as a Drake force element), report (writes the outputs:
+contract for diagnosis.json, markdown for report.md, figures for the PNGs).  The command is
+roboball.cli.diagnose; the effect library itself is roboball.physics.effects.
 """
 from __future__ import annotations
-
-from roboball.identify.friction.results import read_friction, read_joint_friction  # noqa: F401  (the CLI's and the pipeline's reader)
 
 
 def diagnose(recording, out_dir=None, kind: str | None = None, pressure_kpa: float | None = None,
@@ -24,7 +25,7 @@ def diagnose(recording, out_dir=None, kind: str | None = None, pressure_kpa: flo
     roboball.diagnose.data.pool).
 
     `friction` replaces the ramp baseline's Table I joint friction ({"steer": {...}, "drive":
-    {...}} Majd parameters, e.g. from read_friction): the pipeline diagnoses the paper's point
+    {...}} Majd parameters, e.g. from roboball.identify.friction.results.read_friction): the pipeline diagnoses the paper's point
     model with the friction fitted on the stand logs.
 
     Returns (Diagnosis, diagnosis.json content).  With `out_dir`, writes diagnosis.json,
@@ -32,7 +33,7 @@ def diagnose(recording, out_dir=None, kind: str | None = None, pressure_kpa: flo
     augmented model run only then, or when `drake` is forced with an out_dir)."""
     from roboball.ingest.recording import Recording
     from roboball.diagnose.data import pool, prepare, read
-    from roboball.diagnose.decide import diagnose_prepared
+    from roboball.diagnose.select import diagnose_prepared
     from roboball.reduced.batched import model_for
 
     items = list(recording) if isinstance(recording, (list, tuple)) else [recording]
@@ -48,12 +49,10 @@ def diagnose(recording, out_dir=None, kind: str | None = None, pressure_kpa: flo
     d = diagnose_prepared(prep, settings=settings, log=log, model=model)
     if out_dir is None:
         from roboball.diagnose.locate import classify, locate
-        from roboball.diagnose.report import diagnosis_json
+        from roboball.diagnose.contract import diagnosis_json
         labels = classify(d.prep)
         js = diagnosis_json(d, locate(d.prep, d.baseline.full.pred, labels))
         return d, js
     from roboball.diagnose.report import write
     return d, write(d, out_dir, drake=drake)
 
-
-__all__ = ["diagnose", "read_friction", "read_joint_friction"]

@@ -251,56 +251,64 @@ class Engine:
         for it in range(max_iter):
             if not active:
                 break
-            trials = []
-            for p in active:
-                st = state[id(p)]
-                scale = np.array([self.info[k][0] for k in p.free])
-                Js = p.J * scale
-                A = Js.T @ Js
-                g = Js.T @ st["r"]
-                d = np.maximum(np.diag(A), 1e-12 * max(np.max(np.diag(A)), 1e-300))
-                try:
-                    du = np.linalg.solve(A + st["lam"] * np.diag(d), -g)
-                except np.linalg.LinAlgError:
-                    du = -g / (d * (1 + st["lam"]))
-                if not np.all(np.isfinite(du)):
-                    du = np.zeros_like(du)
-                nv = dict(p.values)
-                for j, k in enumerate(p.free):
-                    _, lo, hi = self.info[k]
-                    nv[k] = float(np.clip(p.values[k] + du[j] * scale[j], lo, hi))
-                trials.append(nv)
+            trials = [self._lm_trial(p, state[id(p)]) for p in active]
             results = self.evaluate(active, trials)
             still = []
-            for p, nv, (r, J, pred) in zip(active, trials, results):
-                st = state[id(p)]
-                p.iterations += 1
-                if p.max_iter is not None and p.iterations >= p.max_iter:
-                    p.converged = True
-                rss = float(r @ r)
-                if not math.isfinite(rss):
-                    rss = math.inf
-                if verbose:
-                    print(f"  it {it} {p.effects} rss {p.rss:.6g} -> {rss:.6g} lam {st['lam']:.2g}")
-                if rss < p.rss:
-                    gain = (p.rss - rss) / max(p.rss, 1e-300)
-                    p.values, p.rss, p.cost, p.J, p.pred, p.n = nv, rss, 0.5 * rss, J, pred, len(r)
-                    st["r"] = r
-                    st["lam"] = max(st["lam"] / 3.0, 1e-9)
-                    st["rejects"] = 0
-                    if gain < rtol:
-                        p.converged = True
-                        continue
-                else:
-                    st["lam"] *= 6.0
-                    st["rejects"] += 1
-                    if st["lam"] > 1e7 or st["rejects"] >= max_rejects:
-                        p.converged = True
-                        continue
-                if not p.converged:
+            for p, nv, result in zip(active, trials, results):
+                if self._lm_update(p, nv, result, state[id(p)], rtol, max_rejects, verbose, it):
                     still.append(p)
             active = still
         return problems
+
+    def _lm_trial(self, p: Problem, st: dict) -> dict:
+        """The damped Gauss-Newton step of `p` from its current values (state `st`: residual r,
+        damping lam), in units of the parameters' typical sizes and clipped to their bounds."""
+        scale = np.array([self.info[k][0] for k in p.free])
+        Js = p.J * scale
+        A = Js.T @ Js
+        g = Js.T @ st["r"]
+        d = np.maximum(np.diag(A), 1e-12 * max(np.max(np.diag(A)), 1e-300))
+        try:
+            du = np.linalg.solve(A + st["lam"] * np.diag(d), -g)
+        except np.linalg.LinAlgError:
+            du = -g / (d * (1 + st["lam"]))
+        if not np.all(np.isfinite(du)):
+            du = np.zeros_like(du)
+        nv = dict(p.values)
+        for j, k in enumerate(p.free):
+            _, lo, hi = self.info[k]
+            nv[k] = float(np.clip(p.values[k] + du[j] * scale[j], lo, hi))
+        return nv
+
+    def _lm_update(self, p: Problem, nv: dict, result, st: dict, rtol: float, max_rejects: int,
+                   verbose: bool, it: int) -> bool:
+        """Accept the trial values `nv` (evaluated: `result`) if they lower the cost, else raise
+        the damping; returns whether `p` goes on iterating."""
+        r, J, pred = result
+        p.iterations += 1
+        if p.max_iter is not None and p.iterations >= p.max_iter:
+            p.converged = True
+        rss = float(r @ r)
+        if not math.isfinite(rss):
+            rss = math.inf
+        if verbose:
+            print(f"  it {it} {p.effects} rss {p.rss:.6g} -> {rss:.6g} lam {st['lam']:.2g}")
+        if rss < p.rss:
+            gain = (p.rss - rss) / max(p.rss, 1e-300)
+            p.values, p.rss, p.cost, p.J, p.pred, p.n = nv, rss, 0.5 * rss, J, pred, len(r)
+            st["r"] = r
+            st["lam"] = max(st["lam"] / 3.0, 1e-9)
+            st["rejects"] = 0
+            if gain < rtol:
+                p.converged = True
+                return False
+        else:
+            st["lam"] *= 6.0
+            st["rejects"] += 1
+            if st["lam"] > 1e7 or st["rejects"] >= max_rejects:
+                p.converged = True
+                return False
+        return not p.converged
 
     # ---- grid starts ---------------------------------------------------------------------
     def best_starts(self, probs_effects):

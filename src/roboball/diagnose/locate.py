@@ -112,6 +112,17 @@ def locate(prep: Prepared, pred: dict, labels: dict | None = None, max_windows: 
     res = {w.index: pred[w.index] - w.y for w in prep.windows}
     total = sum(float(np.sum(r * r)) for r in res.values())
     n_all = sum(len(r) for r in res.values())
+    regimes = _regime_shares(res, labels, total, n_all)
+    pieces = [piece for w in prep.windows for piece in _pieces(prep, w, res[w.index], labels[w.index])]
+    merged = _merged(pieces, _largest(pieces, total, cover, max_windows))
+    windows = [dict(start_s=round(m["start_s"], 3), end_s=round(m["end_s"], 3), signal=prep.signal,
+                    regime=m["regime"], share_of_residual=(m["_sq"] / total if total > 0 else 0.0))
+               for m in merged[:max_windows]]
+    return Located(regimes=regimes, windows=windows, labels=labels)
+
+
+def _regime_shares(res: dict, labels: dict, total: float, n_all: int) -> list:
+    """The regime table: each regime's share of the squared residual and of the samples."""
     regimes = []
     for reg in REGIMES:
         sq = sum(float(np.sum(res[i][labels[i][reg]] ** 2)) for i in res)
@@ -122,29 +133,39 @@ def locate(prep: Prepared, pred: dict, labels: dict | None = None, max_windows: 
         frac = cnt / n_all
         regimes.append(dict(regime=reg, share_of_residual=share, share_of_samples=frac,
                             concentration=share / frac if frac > 0 else 0.0))
+    return regimes
+
+
+def _pieces(prep: Prepared, w, r: np.ndarray, lab: dict) -> list:
+    """Window `w` cut into pieces of about one swing period (ramp: 0.25 s), each with its
+    squared residual (`r`: the window's residual) and its most concentrated regime."""
+    if prep.kind == "ramp":
+        length = 0.25
+    else:
+        half = w.release.half_period_s if np.isfinite(w.release.half_period_s) else 0.6
+        length = 2.0 * half
     pieces = []
-    for w in prep.windows:
-        r = res[w.index]
-        if prep.kind == "ramp":
-            length = 0.25
-        else:
-            half = w.release.half_period_s if np.isfinite(w.release.half_period_s) else 0.6
-            length = 2.0 * half
-        edges = np.arange(w.t[0], w.t[-1] + length, length)
-        for a, b in zip(edges[:-1], edges[1:]):
-            m = (w.t >= a) & (w.t < b)
-            if not m.any():
+    edges = np.arange(w.t[0], w.t[-1] + length, length)
+    for a, b in zip(edges[:-1], edges[1:]):
+        m = (w.t >= a) & (w.t < b)
+        if not m.any():
+            continue
+        sq = float(np.sum(r[m] ** 2))
+        best, best_c = "late_decay", -1.0
+        for reg in REGIMES:
+            lm = lab[reg] & m
+            if lm.sum() < max(3, 0.2 * m.sum()):
                 continue
-            sq = float(np.sum(r[m] ** 2))
-            best, best_c = "late_decay", -1.0
-            for reg in REGIMES:
-                lm = labels[w.index][reg] & m
-                if lm.sum() < max(3, 0.2 * m.sum()):
-                    continue
-                conc = (float(np.sum(r[lm] ** 2)) / max(sq, 1e-300)) / (lm.sum() / m.sum())
-                if conc > best_c:
-                    best, best_c = reg, conc
-            pieces.append(dict(window=w.index, start_s=float(w.t[m][0]), end_s=float(w.t[m][-1]), sq=sq, regime=best))
+            conc = (float(np.sum(r[lm] ** 2)) / max(sq, 1e-300)) / (lm.sum() / m.sum())
+            if conc > best_c:
+                best, best_c = reg, conc
+        pieces.append(dict(window=w.index, start_s=float(w.t[m][0]), end_s=float(w.t[m][-1]), sq=sq, regime=best))
+    return pieces
+
+
+def _largest(pieces: list, total: float, cover: float, max_windows: int) -> list:
+    """Indices (in order) of the pieces with the largest squared residual, until they hold
+    `cover` of `total` or 3 * max_windows were taken."""
     order = sorted(range(len(pieces)), key=lambda i: -pieces[i]["sq"])
     chosen, acc = [], 0.0
     for i in order:
@@ -153,6 +174,12 @@ def locate(prep: Prepared, pred: dict, labels: dict | None = None, max_windows: 
         chosen.append(i)
         acc += pieces[i]["sq"]
     chosen.sort()
+    return chosen
+
+
+def _merged(pieces: list, chosen: list) -> list:
+    """The chosen pieces, adjacent ones of a window merged (labelled with the regime of their
+    largest piece), largest squared residual first."""
     merged = []
     for i in chosen:
         p = pieces[i]
@@ -167,7 +194,4 @@ def locate(prep: Prepared, pred: dict, labels: dict | None = None, max_windows: 
             merged.append(dict(start_s=p["start_s"], end_s=p["end_s"], regime=p["regime"], _sq=p["sq"],
                                _last=i, _w=p["window"], _top=p["sq"]))
     merged.sort(key=lambda m: -m["_sq"])
-    windows = [dict(start_s=round(m["start_s"], 3), end_s=round(m["end_s"], 3), signal=prep.signal,
-                    regime=m["regime"], share_of_residual=(m["_sq"] / total if total > 0 else 0.0))
-               for m in merged[:max_windows]]
-    return Located(regimes=regimes, windows=windows, labels=labels)
+    return merged

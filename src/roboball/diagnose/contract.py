@@ -1,0 +1,81 @@
+"""diagnosis.json, the contract's file (../shared/specs/diagnosis.md): the experiment kind, the
+baseline and what was fitted inside it, the verdict, where the baseline's residual sits, the
+missing physics with 95% intervals, and the fit before and after."""
+from __future__ import annotations
+
+import math
+
+from roboball.physics import effects as fx
+from roboball.diagnose.select import Diagnosis
+
+
+def _round(x, n=6):
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return None
+    return float(f"{x:.{n}g}")
+
+
+def baseline_fitted(d: Diagnosis, values: dict | None = None) -> dict:
+    """The baseline's own fitted parameters and release states, of the baseline fit (default) or
+    of another fit of the same model (the augmented model refits them with its effects)."""
+    v = d.baseline.values if values is None else values
+    out = {b.name: _round(v[b.name]) for b in d.model.base_params}
+    unit = "rad" if d.prep.unit == "rad" else None
+    for w in d.prep.windows:
+        i = w.index + 1
+        if f"q0@{w.index}" in v and unit:
+            out[f"release_{i}_{unit}"] = _round(v[f"q0@{w.index}"])
+        out[f"release_{i}_s"] = _round(w.t0 + v.get(f"ts@{w.index}", 0.0))
+    return out
+
+
+# On the ramp the drive rate rises and levels off; the signatures read differently there.
+RAMP_EXPLAINS = {
+    "viscous_damping": "a torque proportional to the drive rate: the descent levels off towards a top speed",
+    "quadratic_drag": "a torque growing with the square of the drive rate: the top speed is reached sooner",
+    "rolling_resistance": "a constant torque opposing rolling: slower from the start, by the same torque at every speed",
+}
+
+
+def missing_physics(d: Diagnosis) -> list:
+    out = []
+    dbic = {}
+    for step in d.steps:
+        for info in step:
+            if info.get("kept"):
+                dbic[info["effect"]] = info["delta_bic"]
+    for e in d.chosen:
+        eff = fx.LIBRARY[e]
+        params = {p: _round(d.final.values[f"{e}.{p}"]) for p in eff.param_names}
+        ci = {p: [_round(d.ci95[f"{e}.{p}"][0]), _round(d.ci95[f"{e}.{p}"][1])] for p in eff.param_names}
+        out.append({"effect": e, "dof": d.model.dof, "parameters": params, "ci95": ci,
+                    "delta_bic": _round(dbic.get(e, d.final.delta_bic), 5),
+                    "explains": RAMP_EXPLAINS.get(e, eff.explains) if d.prep.kind == "ramp" else eff.explains})
+    return out
+
+
+def diagnosis_json(d: Diagnosis, located_base, drake_before=None, drake_after=None) -> dict:
+    # The contract's `located` is where the BASELINE's residual concentrates (its shares sum to at
+    # most 1); where an unexplained residual remains after the effects is in report.md and in
+    # details.json ("located_augmented").
+    located = [dict(w, share_of_residual=_round(w["share_of_residual"], 4)) for w in located_base.windows]
+    fit = {"rmse_before": _round(d.baseline.rmse), "rmse_after": _round(d.final.rmse),
+           "rmse_heldout_before": _round(d.baseline.cv_rmse), "rmse_heldout_after": _round(d.final.cv_rmse),
+           "units": d.prep.unit}
+    if drake_before is not None:
+        fit["drake_rmse_before"] = _round(drake_before)
+        fit["drake_rmse_after"] = _round(drake_after)
+    baseline = {"description": d.model.description, "fitted": baseline_fitted(d)}
+    if d.chosen:        # the augmented model refits them with its effects: needed to reproduce it
+        baseline["refitted_with_effects"] = baseline_fitted(d, d.final.values)
+    friction = getattr(d.model, "friction_params", None)     # the ramp baseline's fitted friction, if any
+    if friction:
+        baseline["friction"] = friction
+    return {
+        "kind": d.prep.kind,
+        "baseline": baseline,
+        "verdict": d.verdict,
+        "located": located,
+        "missing_physics": missing_physics(d),
+        "fit": fit,
+    }

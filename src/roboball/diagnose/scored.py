@@ -1,0 +1,53 @@
+"""What the selection compares: its settings, and a fitted model with its held-out error and
+statistics (`Scored`).  Shared by the keep rule (roboball.diagnose.keep) and the stepwise
+selection (roboball.diagnose.select)."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from roboball.diagnose.fit import Problem
+from roboball.reduced.batched import DT
+
+
+@dataclass
+class Settings:
+    """Iteration counts of the fits and thresholds of the keep rule and the stopping tests."""
+
+    dt: float = DT
+    screen_iter: int = 4
+    fit_iter: int = 15                # full fits
+    fold_iter: int = 8                # cross-validation fits (warm-started from the full fit)
+    state_iter: int = 6               # held-out release-state fits
+    top_k: int = 2
+    bic_min: float = 10.0
+    cv_gain: float = 0.05
+    material_noise: float = 4.0       # an effect must lower the held-out mean square by >= 4 sigma^2
+    material_share: float = 0.0       # ... (and, if set, this share of the baseline's held-out mean square)
+    max_effects: int = 4
+    white_rho: float = 0.3
+    white_factor: float = 1.5
+    explained_factor: float = 3.0
+    explained_ratio: float = 0.1      # augmented: residual RMS within 3 noise levels or a tenth of the baseline's
+    n_blocks: int = 3
+
+
+@dataclass
+class Scored:
+    """A fitted model (full data) with its cross-validation and statistics."""
+
+    effects: tuple
+    full: Problem
+    cv_rmse: float = math.nan
+    cv_pred: dict = field(default_factory=dict)     # window -> held-out prediction (NaN where fitted)
+    rho1: float = math.nan
+    bic: float = math.nan
+    delta_bic: float = math.nan
+
+    @property
+    def rmse(self) -> float:
+        return math.sqrt(self.full.rss / max(self.full.n, 1))
+
+    @property
+    def values(self) -> dict:
+        return self.full.values
