@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from roboball.diagnose.drake import effect_term
-from roboball.reduced.batched import model_for
+from roboball.reduced.models import model_for
 from roboball.physics import effects as fx
 from roboball.metrics import pme
 from roboball.sim.plant import SimSpec

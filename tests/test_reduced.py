@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from roboball.reduced import planar as R
+from roboball.reduced.integrate import sample
 from roboball.config import load_robot
 from roboball.errors import RoboballError, SimulationError
 from roboball.physics import friction
@@ -105,7 +106,7 @@ def _reduced(law, params, q0, dt=R.DEFAULT_DT, kappa=R.STIFF_KAPPA):
     m = R.planar_model("steer_stand", ROBOT)
     tr = R.integrate(m, law, {k: np.array([v]) for k, v in params.items()}, [q0], [0.0], T_EVAL[-1] + 0.02, dt,
                      stiff_kappa=kappa)
-    return R.sample(tr, T_EVAL)[0]
+    return sample(tr, T_EVAL)[0]
 
 
 def _radau(law, params, q0):

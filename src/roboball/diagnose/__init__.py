@@ -33,7 +33,7 @@ def diagnose(recording, out_dir=None, kind: str | None = None, pressure_kpa: flo
     from roboball.ingest.recording import Recording
     from roboball.diagnose.data import pool, prepare, read
     from roboball.diagnose.decide import diagnose_prepared
-    from roboball.reduced.batched import model_for
+    from roboball.reduced.models import model_for
 
     items = list(recording) if isinstance(recording, (list, tuple)) else [recording]
     if not items:

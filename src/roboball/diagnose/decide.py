@@ -53,7 +53,8 @@ import numpy as np
 from roboball.physics import effects as fx
 from roboball.diagnose.data import Prepared
 from roboball.diagnose.fit import Engine, Problem, effect_keys
-from roboball.reduced.batched import DT, ReducedModel, model_for
+from roboball.reduced.base import DT, ReducedModel
+from roboball.reduced.models import model_for
 from roboball.metrics import bic, lag1, n_eff
 
 

@@ -29,7 +29,7 @@ from roboball.sim.forces import SYM, GeneralizedTerm, Kin
 from roboball.sim.plant import SimSpec, build
 from roboball.sim.scenarios import simulate
 from roboball.diagnose.data import Prepared
-from roboball.reduced.batched import ReducedModel
+from roboball.reduced.base import ReducedModel
 
 DRAKE_DT = {"steer_stand": 5e-4, "drive_stand": 5e-4, "shell_rock": 1e-3, "ramp": 1e-3}
 

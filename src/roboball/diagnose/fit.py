@@ -24,7 +24,8 @@ import numpy as np
 
 from roboball.physics import effects as fx
 from roboball.diagnose.data import Prepared
-from roboball.reduced.batched import DT, ReducedModel, hermite
+from roboball.reduced.base import DT, ReducedModel
+from roboball.reduced.integrate import hermite
 
 Q0_BOUND = 0.1        # rad: release value may move this far from the hold level
 FD_REL = 0.01         # forward-difference step, in units of the parameter's typical size
