@@ -140,8 +140,8 @@ def test_the_mcmc_forward_model_agrees_with_drake(kind, joint, q0, law):
     0.25 ms step (measured 0.43-0.57 mrad, 1.7-2.3 mrad at Drake's default 1 ms; the sensors'
     quantum is 1 mrad), while 10% more of the law's main term (c, mu_d or f_c) moves the
     reduced model 8-38 mrad away from Drake."""
-    from roboball.sim.plant import SimSpec
     from roboball.sim.scenarios import simulate
+    from roboball.sim.spec import SimSpec
 
     params = friction.table1_params(ROBOT, law, joint)
     spec = SimSpec(kind=kind, friction={joint: law}, friction_params={joint: params}, dt=2.5e-4)

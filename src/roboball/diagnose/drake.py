@@ -26,8 +26,9 @@ import numpy as np
 
 from roboball.physics import effects as fx
 from roboball.sim.forces import SYM, GeneralizedTerm, Kin
-from roboball.sim.plant import SimSpec, build
+from roboball.sim.plant import build
 from roboball.sim.scenarios import simulate
+from roboball.sim.spec import SimSpec
 from roboball.diagnose.data import Prepared
 from roboball.reduced.base import ReducedModel
 

@@ -97,8 +97,9 @@ def rolling_radius(robot: RobotFacts) -> float:
     """
     key = (robot.source, robot.radius, robot.total_mass)
     if key not in _ROLLING_RADIUS:
-        from roboball.sim.plant import SimSpec, build
+        from roboball.sim.plant import build
         from roboball.sim.scenarios import simulate
+        from roboball.sim.spec import SimSpec
         spec = SimSpec(kind="shell_rock", contact="point", friction={"steer": "none", "drive": "none"}, robot=robot)
         _, x = simulate(spec, robot.shell_rest_angle, 0.5, sample_rate_hz=100.0, return_states=True)
         lay = build(spec).layout
