@@ -56,11 +56,16 @@ def _law_call(law: str):
 
 
 def _kernel(law: str):
-    if law in _KERNELS:
-        return _KERNELS[law]
-    from numba import njit, prange
+    """The compiled time loop of law `law` (compiled once per law and process)."""
+    if law not in _KERNELS:
+        fric = _law_call(law)
+        _KERNELS[law] = _run_kernel(_accel_kernel(fric), _implicit_kernel(fric))
+    return _KERNELS[law]
 
-    fric = _law_call(law)
+
+def _accel_kernel(fric):
+    """Compiled accel(q, v, ...) of one RK4 stage (inlined into the loop)."""
+    from numba import njit
 
     @njit(inline="always")
     def accel(q, v, p, m, gG, beta, const_m, inv_m0, M0, RG):
@@ -70,6 +75,13 @@ def _kernel(law: str):
             return (tau - gG * s) * inv_m0
         mm = M0 - 2.0 * RG * math.cos(q + beta)
         return (tau - s * (gG + RG * v * v)) / mm
+
+    return accel
+
+
+def _implicit_kernel(fric):
+    """Compiled implicit(q, v, ...) -> (q1, v1): the backward-Euler stiction step."""
+    from numba import njit
 
     @njit
     def implicit(q, v, p, m, h, slope0, gG, beta, M0, RG):
@@ -113,6 +125,13 @@ def _kernel(law: str):
             w = w_n
             f = fric(w, p, m)
         return q + h * w, w
+
+    return implicit
+
+
+def _run_kernel(accel, implicit):
+    """Compiled run(...): every row's RK4 loop with the implicit step, rows in parallel."""
+    from numba import njit, prange
 
     @njit(parallel=True)
     def run(P, q0, v0, band, slope0, h, nrow, gG, beta, const_m, M0, RG, m, Q, V, n_impl):
@@ -158,7 +177,6 @@ def _kernel(law: str):
                 V[r, i] = v
             n_impl[r] = k
 
-    _KERNELS[law] = run
     return run
 
 

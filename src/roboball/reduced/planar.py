@@ -5,8 +5,8 @@ Drake simulates one set at a time; these models integrate the same physics for a
 (every emcee walker, every release, every finite-difference perturbation) in one call.  Runs
 with a friction law alone go through the compiled loop of :mod:`roboball.reduced.kernel` (the
 same algorithm in machine code, rows in parallel threads); runs with extra torques (diagnosis
-effects, the injected shell) use the NumPy loop here, which pays the per-step Python overhead
-once per batch.  The friction torque is computed by the law functions of
+effects, the injected shell) use the NumPy loop of :mod:`roboball.reduced.integrate`, which
+pays the per-step Python overhead once per batch.  The friction torque is computed by the law functions of
 :mod:`roboball.physics.friction` (the same functions the Drake diagram evaluates symbolically,
 and the compiled loop compiles); nothing here re-implements a law.
 
@@ -48,11 +48,11 @@ The applied/extra generalised torque is a callable ``extra_torque(q, qd, params)
 :func:`injected_shell` wraps eq. 9 (:func:`roboball.physics.shell.injected_torque`).
 
 Integration: fixed-step RK4 (Nystroem form) with an implicit backward-Euler step where stiff
-stiction needs it (:func:`roboball.reduced.integrate.rk4_stiction`, whose docstring gives the
-accuracy study behind ``DEFAULT_DT`` and ``STIFF_KAPPA``); runs with a friction law alone take
-the compiled copy of that loop (:mod:`roboball.reduced.kernel`).
-Outputs are stored at every step with their rate and evaluated at the requested (irregular)
-times by cubic Hermite interpolation.
+stiction needs it (:func:`roboball.reduced.integrate.rk4_stiction`; the module's docstring gives
+the accuracy study behind ``DEFAULT_DT`` and ``STIFF_KAPPA``); runs with a friction law alone take
+the compiled copy of that loop (:mod:`roboball.reduced.kernel`).  Outputs are stored at every
+step with their rate and evaluated at the requested (irregular) times by cubic Hermite
+interpolation (:func:`roboball.reduced.integrate.sample`).
 """
 from __future__ import annotations
 

@@ -24,7 +24,7 @@ from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
 from pydrake.systems.analysis import Simulator
 
 from roboball.errors import SimulationError
-from roboball.kinds import MAIN_SIGNAL, SIM_SIGNALS, STANDS
+from roboball.kinds import SIM_SIGNALS, STANDS
 from roboball.sim.forces import Kin
 from roboball.sim.plant import Built, build
 from roboball.sim.spec import SimSpec
