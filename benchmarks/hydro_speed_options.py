@@ -41,8 +41,9 @@ from pydrake.systems.analysis import Simulator  # noqa: E402
 
 from roboball.metrics import pme  # noqa: E402
 from roboball.sim.convergence import ramp_spec, timed_descent  # noqa: E402
-from roboball.sim.plant import ShellParams, SimSpec, build  # noqa: E402
+from roboball.sim.plant import build  # noqa: E402
 from roboball.sim.scenarios import set_release, simulate  # noqa: E402
+from roboball.sim.spec import ShellParams, SimSpec  # noqa: E402
 
 
 def allocator() -> str:

@@ -22,8 +22,9 @@ from dataclasses import replace
 
 from roboball.errors import RoboballError
 from roboball.sim.convergence import STUDY_PRESSURE_KPA, STUDY_SHELL, step_study, ramp_spec, timed_descent
-from roboball.sim.plant import SimSpec, build
+from roboball.sim.plant import build
 from roboball.sim.scenarios import simulate
+from roboball.sim.spec import SimSpec
 
 CASES = [
     ("steer_stand", "point", 0.8), ("drive_stand", "point", 0.6),

@@ -14,9 +14,9 @@ import roboball.sim.plant as plant_mod
 from conftest import fit_damped
 from roboball.metrics import pme
 from roboball.sim.convergence import ramp_spec, timed_descent
-from roboball.sim.plant import (APPROXIMATION, HYDRO_APPROXIMATION, ShellParams, SimSpec, approximation_available,
-                                approximation_for, build)
+from roboball.sim.plant import APPROXIMATION, HYDRO_APPROXIMATION, approximation_available, approximation_for, build
 from roboball.sim.scenarios import simulate
+from roboball.sim.spec import ShellParams, SimSpec
 
 warnings.filterwarnings("ignore", message=".*TAMSI.*")
 

@@ -160,7 +160,7 @@ def test_drake_runs_start_a_release_past_the_steer_stop_at_the_stop_with_a_note(
     the report says so."""
     from roboball.diagnose.data import prepare, read
     from roboball.diagnose.drake import simulate_windows
-    from roboball.reduced.batched import model_for
+    from roboball.reduced.models import model_for
 
     prep = prepare(read(REPO / "raw_data" / "steer_stand" / "steer_stand_r1.csv"))
     prep.windows = prep.windows[:1]

@@ -4,11 +4,11 @@ import numpy as np
 import pytest
 
 from roboball.diagnose.drake import effect_term
-from roboball.reduced.batched import model_for
+from roboball.reduced.models import model_for
 from roboball.physics import effects as fx
 from roboball.metrics import pme
-from roboball.sim.plant import SimSpec
 from roboball.sim.scenarios import simulate
+from roboball.sim.spec import SimSpec
 
 
 def _reduced(model, q0, P, duration, dt=2e-3):

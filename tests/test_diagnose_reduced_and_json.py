@@ -7,7 +7,9 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from roboball.reduced.batched import StandModel, hermite, model_for
+from roboball.reduced.integrate import hermite
+from roboball.reduced.models import model_for
+from roboball.reduced.stand import StandModel
 from roboball.diagnose.contract import RAMP_EXPLAINS, baseline_fitted, diagnosis_json
 from roboball.diagnose.markdown import _heldout_note, _param_cells
 from roboball.physics import effects as fx

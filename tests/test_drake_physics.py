@@ -7,8 +7,9 @@ from scipy.integrate import solve_ivp
 
 from conftest import fit_damped
 from roboball.physics import friction
-from roboball.sim.plant import ShellParams, SimSpec, build
+from roboball.sim.plant import build
 from roboball.sim.scenarios import energy, set_release, signals_from_states, simulate
+from roboball.sim.spec import ShellParams, SimSpec
 
 
 def test_shell_rock_point_contact_matches_eq5(robot):
@@ -157,8 +158,8 @@ def test_a_steer_release_past_the_joint_stop_is_refused():
     """Drake's limit stop would throw the pendulum across its range in a few ms (Fig. 7 once
     showed it): a release outside [-1.57, 1.0] rad is a clear error, not a simulation."""
     from roboball.errors import SimulationError
-    from roboball.sim.plant import SimSpec
     from roboball.sim.scenarios import simulate
+    from roboball.sim.spec import SimSpec
 
     spec = SimSpec(kind="steer_stand", friction={"steer": "viscous", "drive": "none"}, friction_params={"steer": {"c": 0.3}})
     with pytest.raises(SimulationError, match=r"release angle 1.158 rad is outside the steer joint's limits \[-1.57, 1\]"):

@@ -6,8 +6,8 @@ import pytest
 
 from roboball.metrics import pme, speed_errors
 from roboball.sim.forces import InjectedShell
-from roboball.sim.plant import SimSpec
 from roboball.sim.scenarios import simulate
+from roboball.sim.spec import SimSpec
 
 
 def test_pme_by_hand():

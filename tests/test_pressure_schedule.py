@@ -9,10 +9,12 @@ import numpy as np
 import pytest
 
 from roboball.errors import RoboballError
-from roboball.sim.plant import ShellParams, SimSpec, build
-from roboball.sim.pressure import (PressureSchedule, ShellLaws, hydro_properties, pressure_shell_system,
-                                   simulate_schedule)
+from roboball.sim.plant import build
+from roboball.sim.pressure import pressure_shell_system
 from roboball.sim.scenarios import simulate
+from roboball.sim.schedule import PressureSchedule, ShellLaws
+from roboball.sim.schedule_run import hydro_properties, simulate_schedule
+from roboball.sim.spec import ShellParams, SimSpec
 
 LAWS = ShellLaws(zeta_a=0.2282, zeta_b=-0.03819, omega_n_c=2.702, omega_n_d=0.02761)
 HI, LO = 20.7, 6.9
@@ -159,8 +161,8 @@ def test_replacing_properties_in_context_equals_rebuilding_with_state_carried(ro
     calls give the same trajectory as a diagram rebuilt with them and the state copied over."""
     from pydrake.systems.analysis import Simulator
 
-    from roboball.sim.pressure import hydro_updater
     from roboball.sim.scenarios import set_release
+    from roboball.sim.schedule_run import hydro_updater
 
     spec = SimSpec(kind="shell_rock", contact="hydroelastic", pressure_kpa=HI,
                    shell=ShellParams(zeta=float(LAWS.zeta(HI)), omega_n=float(LAWS.omega_n(HI))))

@@ -91,10 +91,10 @@ def test_on_the_ramp_the_injected_shell_is_the_diagnosed_rolling_damping():
 
     from roboball.config import load_robot
     from roboball.diagnose.drake import effect_term, ramp_spec
-    from roboball.reduced.batched import model_for
+    from roboball.reduced.models import model_for
     from roboball.physics.shell import c_inject
-    from roboball.sim.plant import ShellParams, SimSpec
     from roboball.sim.scenarios import simulate
+    from roboball.sim.spec import ShellParams, SimSpec
 
     zeta, omega_n, p = 0.155, 2.99, 10.3
     c = c_inject(zeta, omega_n, load_robot().M_eq)

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from roboball.reduced import planar as R
+from roboball.reduced.integrate import sample
 from roboball.config import load_robot
 from roboball.errors import RoboballError, SimulationError
 from roboball.physics import friction
@@ -105,7 +106,7 @@ def _reduced(law, params, q0, dt=R.DEFAULT_DT, kappa=R.STIFF_KAPPA):
     m = R.planar_model("steer_stand", ROBOT)
     tr = R.integrate(m, law, {k: np.array([v]) for k, v in params.items()}, [q0], [0.0], T_EVAL[-1] + 0.02, dt,
                      stiff_kappa=kappa)
-    return R.sample(tr, T_EVAL)[0]
+    return sample(tr, T_EVAL)[0]
 
 
 def _radau(law, params, q0):
@@ -139,8 +140,8 @@ def test_the_mcmc_forward_model_agrees_with_drake(kind, joint, q0, law):
     0.25 ms step (measured 0.43-0.57 mrad, 1.7-2.3 mrad at Drake's default 1 ms; the sensors'
     quantum is 1 mrad), while 10% more of the law's main term (c, mu_d or f_c) moves the
     reduced model 8-38 mrad away from Drake."""
-    from roboball.sim.plant import SimSpec
     from roboball.sim.scenarios import simulate
+    from roboball.sim.spec import SimSpec
 
     params = friction.table1_params(ROBOT, law, joint)
     spec = SimSpec(kind=kind, friction={joint: law}, friction_params={joint: params}, dt=2.5e-4)

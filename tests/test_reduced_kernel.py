@@ -1,4 +1,4 @@
-"""The compiled time loop (roboball.reduced.kernel) against the NumPy loop of roboball.reduced.planar.
+"""The compiled time loop (roboball.reduced.kernel) against the NumPy loop (roboball.reduced.integrate).
 
 The friction posterior runs on the compiled loop; these tests are what lets it stand in for the
 NumPy loop (which the accuracy tests of test_reduced.py check against a Radau reference).

@@ -17,8 +17,8 @@ import pandas as pd
 import pytest
 
 from roboball.errors import RoboballError, SimulationError
-from roboball.sim.plant import ShellParams, SimSpec
 from roboball.sim.scenarios import simulate
+from roboball.sim.spec import ShellParams, SimSpec
 
 ROBOBALL = str(Path(sys.executable).parent / "roboball")
 

@@ -4,8 +4,9 @@ sinks by millimetres) and rigid point contact alike."""
 import numpy as np
 import pytest
 
-from roboball.sim.plant import ShellParams, SimSpec, build
+from roboball.sim.plant import build
 from roboball.sim.scenarios import set_release, settle_on_ground, simulate
+from roboball.sim.spec import ShellParams, SimSpec
 
 HYDRO = dict(contact="hydroelastic", pressure_kpa=13.8, shell=ShellParams(zeta=0.10, omega_n=2.75, dissipation_scale=0.5))
 

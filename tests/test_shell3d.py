@@ -13,9 +13,10 @@ from pydrake.math import RollPitchYaw, RotationMatrix
 from roboball.identify.shell.decay import extract_decay
 from roboball.ingest.releases.record import Release
 from roboball.sim.forces import Kin
-from roboball.sim.plant import ShellParams, SimSpec, build
+from roboball.sim.plant import build
 from roboball.sim.scenarios import simulate
 from roboball.sim.shell3d import base_tilt
+from roboball.sim.spec import ShellParams, SimSpec
 
 # zeta, omega_n of the Fig. 10 regressions at 6.9 and 20.7 kPa
 CASES = [(6.9, 0.1755, 2.893), (20.7, 0.1036, 3.274)]
@@ -109,8 +110,9 @@ def test_3d_on_the_ramp_vs_the_planar_model():
     """On the ramp the 3-D damping is the planar model's steer + drive damping written for any
     direction: without its stiffness the two descents agree.  The 3-D stiffness then adds what
     the paper drops in the drive direction (K on the pendulum's forward swing): a bounded change."""
+    from roboball.sim.plant import ground_normal
+    from roboball.sim.shell import shell_coefficients
     from roboball.sim.shell3d import InjectedShell3D
-    from roboball.sim.plant import ground_normal, shell_coefficients
 
     base = dict(kind="ramp", friction={"steer": "majd", "drive": "majd"}, pressure_kpa=13.8)
     shell = ShellParams(zeta=0.135, omega_n=3.08)

@@ -76,8 +76,9 @@ def test_impossible_pressures_are_refused():
 
 
 def test_eq11_dissipation_is_c_inject_and_the_drake_plant_takes_it_from_that_law(monkeypatch):
-    from roboball.sim import plant
-    from roboball.sim.plant import ShellParams, SimSpec, shell_tags
+    from roboball.sim import shell as sim_shell
+    from roboball.sim.shell import shell_tags
+    from roboball.sim.spec import ShellParams, SimSpec
 
     assert shell.hydro_dissipation(0.1, 2.7, ROBOT.M_eq) == shell.c_inject(0.1, 2.7, ROBOT.M_eq)
     spec = SimSpec(kind="shell_rock", contact="hydroelastic", pressure_kpa=13.8,
@@ -86,7 +87,7 @@ def test_eq11_dissipation_is_c_inject_and_the_drake_plant_takes_it_from_that_law
     assert tags.hunt_crossley == pytest.approx(1.5 * shell.c_inject(0.1, 2.7, ROBOT.M_eq))
     assert tags.hydro_modulus == pytest.approx(0.5 * shell.hydro_modulus(13.8e3, ROBOT.weight_n, ROBOT.radius))
     # one source: editing eq. 11's function changes what Drake gets
-    monkeypatch.setattr(plant.shell_laws, "hydro_dissipation", lambda zeta, omega_n, m_eq: 7.0)
+    monkeypatch.setattr(sim_shell.shell_laws, "hydro_dissipation", lambda zeta, omega_n, m_eq: 7.0)
     assert shell_tags(ROBOT, spec).hunt_crossley == pytest.approx(10.5)
     # a hydroelastic spec without the shell's zeta and omega_n is refused
     with pytest.raises(ValueError, match="needs the shell's zeta and omega_n"):
@@ -94,12 +95,13 @@ def test_eq11_dissipation_is_c_inject_and_the_drake_plant_takes_it_from_that_law
 
 
 def test_the_pressure_schedule_takes_eq10_and_eq11_from_the_laws(monkeypatch):
-    from roboball.sim import pressure
-    from roboball.sim.plant import ShellParams
+    from roboball.sim import schedule_run
+    from roboball.sim.schedule import ShellLaws
+    from roboball.sim.spec import ShellParams
 
-    laws = pressure.ShellLaws(zeta_a=0.3, zeta_b=-0.05, omega_n_c=2.2, omega_n_d=0.04)
-    m, c = pressure.hydro_properties(ROBOT, ShellParams(dissipation_scale=2.0), laws, 10.0)
+    laws = ShellLaws(zeta_a=0.3, zeta_b=-0.05, omega_n_c=2.2, omega_n_d=0.04)
+    m, c = schedule_run.hydro_properties(ROBOT, ShellParams(dissipation_scale=2.0), laws, 10.0)
     assert c == pytest.approx(2.0 * shell.c_inject(laws.zeta(10.0), laws.omega_n(10.0), ROBOT.M_eq))
     assert m == pytest.approx(shell.hydro_modulus(10.0e3, ROBOT.weight_n, ROBOT.radius))
-    monkeypatch.setattr(pressure.shell_laws, "hydro_dissipation", lambda zeta, omega_n, m_eq: 7.0)
-    assert pressure.hydro_properties(ROBOT, ShellParams(), laws, 10.0)[1] == 7.0
+    monkeypatch.setattr(schedule_run.shell_laws, "hydro_dissipation", lambda zeta, omega_n, m_eq: 7.0)
+    assert schedule_run.hydro_properties(ROBOT, ShellParams(), laws, 10.0)[1] == 7.0

@@ -6,8 +6,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from roboball.sim.plant import SimSpec
 from roboball.sim.scenarios import simulate
+from roboball.sim.spec import SimSpec
 from roboball.testbed.campaign import generate, jobs, ramp_release_s
 from roboball.testbed.physics import load_truth
 from roboball.testbed.run import ALL_EXTRAS, run_free

@@ -50,8 +50,8 @@ def cmd_simulate(args) -> int:
     from roboball.config import ROBOT_YAML
     from roboball.physics import shell as shell_laws
     from roboball.ingest.recording import write_recording
-    from roboball.sim.plant import ShellParams, SimSpec
     from roboball.sim.scenarios import simulate
+    from roboball.sim.spec import ShellParams, SimSpec
 
     if args.dt > 0.01:
         raise RoboballError(f"--dt {args.dt}: time step above 10 ms is not allowed (contact and friction become inaccurate)")

@@ -6,8 +6,7 @@ the baseline leaves out, model it, and show the fit improve (issue 6; contract
     d, js = diagnose("raw_data/steer_stand/steer_stand_r1.csv", out_dir="results/diagnose/steer")
 
 Modules, in the order a diagnosis runs: data (fit windows of the releases; the fast batched
-reduced models are roboball.reduced.batched and roboball.reduced.ramp), fit (batched
-Levenberg-Marquardt by simulation error), scored (the selection's settings and scored models),
+reduced models are in roboball.reduced), fit (batched Levenberg-Marquardt by simulation error), scored (the selection's settings and scored models),
 keep (the keep rule: BIC, held-out error, materiality, 95% intervals), select (greedy forward
 selection with backward and swap passes, and the verdict), locate (residual by time window and
 regime), drake (the augmented model as a Drake force element), report (writes the outputs:
@@ -34,7 +33,7 @@ def diagnose(recording, out_dir=None, kind: str | None = None, pressure_kpa: flo
     from roboball.ingest.recording import Recording
     from roboball.diagnose.data import pool, prepare, read
     from roboball.diagnose.select import diagnose_prepared
-    from roboball.reduced.batched import model_for
+    from roboball.reduced.models import model_for
 
     items = list(recording) if isinstance(recording, (list, tuple)) else [recording]
     if not items:

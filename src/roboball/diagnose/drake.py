@@ -26,10 +26,11 @@ import numpy as np
 
 from roboball.physics import effects as fx
 from roboball.sim.forces import SYM, GeneralizedTerm, Kin
-from roboball.sim.plant import SimSpec, build
+from roboball.sim.plant import build
 from roboball.sim.scenarios import simulate
+from roboball.sim.spec import SimSpec
 from roboball.diagnose.data import Prepared
-from roboball.reduced.batched import ReducedModel
+from roboball.reduced.base import ReducedModel
 
 DRAKE_DT = {"steer_stand": 5e-4, "drive_stand": 5e-4, "shell_rock": 1e-3, "ramp": 1e-3}
 

@@ -10,7 +10,7 @@ regression on differentiated data (which noise ruins).
 
 `Engine.fit` runs Levenberg-Marquardt on a list of problems together: every iteration, the
 trial points of all unfinished problems and their finite-difference perturbations are simulated
-in ONE batched call of the reduced model (`roboball.reduced.batched`), so the per-step Python
+in ONE batched call of the reduced model (`roboball.reduced`), so the per-step Python
 cost is shared by hundreds of simulations.  The derivative with respect to a release instant is
 analytic (minus the simulated rate), the others are forward differences.  Steps are bounded by
 the parameters' physical bounds (roboball.physics.effects).
@@ -24,7 +24,8 @@ import numpy as np
 
 from roboball.physics import effects as fx
 from roboball.diagnose.data import Prepared
-from roboball.reduced.batched import DT, ReducedModel, hermite
+from roboball.reduced.base import DT, ReducedModel
+from roboball.reduced.integrate import hermite
 
 Q0_BOUND = 0.1        # rad: release value may move this far from the hold level
 FD_REL = 0.01         # forward-difference step, in units of the parameter's typical size

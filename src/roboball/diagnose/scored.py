@@ -7,7 +7,7 @@ import math
 from dataclasses import dataclass, field
 
 from roboball.diagnose.fit import Problem
-from roboball.reduced.batched import DT
+from roboball.reduced.base import DT
 
 
 @dataclass

@@ -41,7 +41,8 @@ from roboball.diagnose.data import Prepared
 from roboball.diagnose.fit import Engine, Problem, effect_keys
 from roboball.diagnose.keep import KeepRule, immaterial
 from roboball.diagnose.scored import Scored, Settings
-from roboball.reduced.batched import ReducedModel, model_for
+from roboball.reduced.base import ReducedModel
+from roboball.reduced.models import model_for
 
 
 @dataclass

@@ -72,8 +72,8 @@ def fig5(fits: list, out_png: str) -> None:
 
 
 def _drake_swing(kind, law, params, q0, duration):
-    from roboball.sim.plant import SimSpec
     from roboball.sim.scenarios import simulate
+    from roboball.sim.spec import SimSpec
 
     joint = "steer" if kind == "steer_stand" else "drive"
     other = "drive" if joint == "steer" else "steer"

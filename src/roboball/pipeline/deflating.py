@@ -22,8 +22,9 @@ def run_cases(laws, schedule, contacts=("injected", "hydroelastic"), duration: f
               friction_params: dict | None = None, hydro_update_s: float = 0.05) -> pd.DataFrame:
     """Ramp descents at the schedule's first and last pressure and following it, per contact
     model; long table: contact, case, time_s, pressure_kpa, drive_rate_rad_s."""
-    from roboball.sim.plant import ShellParams, SimSpec
-    from roboball.sim.pressure import PressureSchedule, simulate_schedule
+    from roboball.sim.schedule import PressureSchedule
+    from roboball.sim.schedule_run import simulate_schedule
+    from roboball.sim.spec import ShellParams, SimSpec
 
     p_start, p_end = schedule.pressures_kpa[0], schedule.pressures_kpa[-1]
     cases = [(f"constant {p_start:g} kPa", PressureSchedule.constant(p_start)),
@@ -84,7 +85,7 @@ def deflating_ramp(regression: str, out_png: str, out_csv: str = "", schedule_cs
     """Fig. S1 (PNG + PDF) and its traces (CSV): ramp descents at constant start and end
     pressure and while deflating (the schedule CSV, else the time/pressure lists, else linearly
     from p_start to p_end over the run)."""
-    from roboball.sim.pressure import PressureSchedule, ShellLaws
+    from roboball.sim.schedule import PressureSchedule, ShellLaws
     from roboball.identify.friction.results import read_joint_friction
 
     laws = ShellLaws.from_regression_csv(regression)

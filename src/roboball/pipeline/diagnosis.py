@@ -82,7 +82,7 @@ def ramp_diagnosed(recording: str, releases: str, diagnoses: list, out_csv: str,
     """Ramp descent of one recorded run with the diagnosed model (effects from `diagnoses`, the
     other runs' diagnosis.json files), scored by PME like the paper's contact models."""
     from roboball.diagnose.drake import effect_term, ramp_spec
-    from roboball.reduced.batched import model_for
+    from roboball.reduced.models import model_for
     from roboball.ingest.recording import read_recording
     from roboball.sim.scenarios import simulate
 

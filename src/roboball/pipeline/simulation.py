@@ -38,8 +38,8 @@ def shell_sim(releases: str, regression: str, contact: str, out_csv: str, modulu
     the same code as the data.  One row per release."""
     from roboball.identify.shell.decay import extract_decay
     from roboball.ingest.releases.record import Release
-    from roboball.sim.plant import ShellParams, SimSpec
     from roboball.sim.scenarios import simulate
+    from roboball.sim.spec import ShellParams, SimSpec
 
     info = _releases(releases)
     p = info["pressure_kpa"]
@@ -98,8 +98,8 @@ def ramp_sim(recording: str, releases: str, regression: str, contact: str, out_c
     drive rate is compared with the recording until the robot leaves the ramp.  The
     `posterior_draws` friction draws come from the campaign's `seed` and the run's name."""
     from roboball.ingest.recording import read_recording
-    from roboball.sim.plant import ShellParams, SimSpec
     from roboball.sim.scenarios import simulate
+    from roboball.sim.spec import ShellParams, SimSpec
 
     rec = read_recording(recording)
     tt, w_e, pipe0 = ramp_window(rec, releases)
@@ -160,8 +160,9 @@ def replay(kind: str, contact: str, out_html: str, regression: str = "", pressur
     from pydrake.systems.analysis import Simulator
 
     from roboball.atomic import write_text_atomic
-    from roboball.sim.plant import ShellParams, SimSpec, build
+    from roboball.sim.plant import build
     from roboball.sim.scenarios import set_release
+    from roboball.sim.spec import ShellParams, SimSpec
 
     shell = ShellParams(dissipation_scale=dissipation_scale, injected_steer=kind != "ramp")
     if regression:

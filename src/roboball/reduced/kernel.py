@@ -1,13 +1,15 @@
 """Compiled time loop of the reduced planar model (Numba): the same algorithm, no Python per step.
 
-Why: the friction posterior simulates every walker's releases at every MCMC step.  The NumPy loop
-of :func:`roboball.reduced.planar.integrate` pays ~15 array operations per RK4 stage in Python, about
-80 us per step for a batch of 128 rows, which made a converged Majd posterior take half an hour.
+Why: the friction posterior simulates every walker's releases at every MCMC step.  The NumPy
+loop :func:`roboball.reduced.integrate.rk4_stiction` pays ~15 array operations per RK4 stage in
+Python, about 80 us per step for a batch of 128 rows, which made a converged Majd posterior take
+half an hour.
 Here each batch row runs the identical algorithm in machine code (rows in parallel threads):
 
-* RK4 in its Nystroem form, the same stage formulas and operation order as ``integrate``;
+* RK4 in its Nystroem form, the same stage formulas and operation order as ``rk4_stiction``;
 * the backward-Euler stiction step with the bracketed, safeguarded Newton iteration of
-  ``reduced._implicit_step``, taken on the same steps (stiff band, zero crossings that stick);
+  ``integrate.implicit_step`` (the same ``NEWTON_MAX_IT``), taken on the same steps (stiff
+  band, zero crossings that stick);
 * the friction torque from the law functions of :mod:`roboball.physics.friction` themselves,
   compiled with the scalar math namespace :func:`roboball.physics.mathns.scalar`: nothing here
   re-implements a law.
@@ -26,6 +28,7 @@ import numpy as np
 
 from roboball.physics import friction
 from roboball.physics.mathns import scalar
+from roboball.reduced.integrate import NEWTON_MAX_IT
 
 __all__ = ["supports", "integrate_rows"]
 
@@ -53,13 +56,16 @@ def _law_call(law: str):
 
 
 def _kernel(law: str):
-    if law in _KERNELS:
-        return _KERNELS[law]
-    from numba import njit, prange
+    """The compiled time loop of law `law` (compiled once per law and process)."""
+    if law not in _KERNELS:
+        fric = _law_call(law)
+        _KERNELS[law] = _run_kernel(_accel_kernel(fric), _implicit_kernel(fric))
+    return _KERNELS[law]
 
-    from roboball.reduced.planar import _NEWTON_MAX_IT        # the NumPy loop's iteration cap, frozen into the kernel
 
-    fric = _law_call(law)
+def _accel_kernel(fric):
+    """Compiled accel(q, v, ...) of one RK4 stage (inlined into the loop)."""
+    from numba import njit
 
     @njit(inline="always")
     def accel(q, v, p, m, gG, beta, const_m, inv_m0, M0, RG):
@@ -69,6 +75,13 @@ def _kernel(law: str):
             return (tau - gG * s) * inv_m0
         mm = M0 - 2.0 * RG * math.cos(q + beta)
         return (tau - s * (gG + RG * v * v)) / mm
+
+    return accel
+
+
+def _implicit_kernel(fric):
+    """Compiled implicit(q, v, ...) -> (q1, v1): the backward-Euler stiction step."""
+    from numba import njit
 
     @njit
     def implicit(q, v, p, m, h, slope0, gG, beta, M0, RG):
@@ -95,7 +108,7 @@ def _kernel(law: str):
             w = w_stick
         scale = abs(c) + 1e-300
         f = fric(w, p, m)
-        for _ in range(_NEWTON_MAX_IT):
+        for _ in range(NEWTON_MAX_IT):      # the NumPy loop's cap, frozen into the kernel
             r = alpha * w - c - hm * f
             if abs(r) <= 1e-11 * scale + 1e-14:
                 break
@@ -112,6 +125,13 @@ def _kernel(law: str):
             w = w_n
             f = fric(w, p, m)
         return q + h * w, w
+
+    return implicit
+
+
+def _run_kernel(accel, implicit):
+    """Compiled run(...): every row's RK4 loop with the implicit step, rows in parallel."""
+    from numba import njit, prange
 
     @njit(parallel=True)
     def run(P, q0, v0, band, slope0, h, nrow, gG, beta, const_m, M0, RG, m, Q, V, n_impl):
@@ -144,7 +164,7 @@ def _kernel(law: str):
                     if in_band or abs(v_new) < b or v * v_new < 0.0:
                         k += 1
                         qi, vi = implicit(q, v, p, m, h, slope0[r], gG, beta, M0, RG)
-                        # as reduced.integrate: a crossing that does not stick stays with RK4
+                        # as integrate.rk4_stiction: a crossing that does not stick stays with RK4
                         if in_band or abs(vi) < b:
                             q_new = qi
                             v_new = vi
@@ -157,7 +177,6 @@ def _kernel(law: str):
                 V[r, i] = v
             n_impl[r] = k
 
-    _KERNELS[law] = run
     return run
 
 

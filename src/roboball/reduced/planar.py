@@ -5,8 +5,8 @@ Drake simulates one set at a time; these models integrate the same physics for a
 (every emcee walker, every release, every finite-difference perturbation) in one call.  Runs
 with a friction law alone go through the compiled loop of :mod:`roboball.reduced.kernel` (the
 same algorithm in machine code, rows in parallel threads); runs with extra torques (diagnosis
-effects, the injected shell) use the NumPy loop here, which pays the per-step Python overhead
-once per batch.  The friction torque is computed by the law functions of
+effects, the injected shell) use the NumPy loop of :mod:`roboball.reduced.integrate`, which
+pays the per-step Python overhead once per batch.  The friction torque is computed by the law functions of
 :mod:`roboball.physics.friction` (the same functions the Drake diagram evaluates symbolically,
 and the compiled loop compiles); nothing here re-implements a law.
 
@@ -47,38 +47,12 @@ The applied/extra generalised torque is a callable ``extra_torque(q, qd, params)
 (``params`` is the batch's parameter dict, so effect parameters travel with the walkers);
 :func:`injected_shell` wraps eq. 9 (:func:`roboball.physics.shell.injected_torque`).
 
-Integrator: classical RK4 with a fixed step, plus an implicit step for stiff stiction
----------------------------------------------------------------------------------------
-Measured against a 10 us reference on 8 s, 1.2 rad steer swings (see ``tests/test_reduced.py``
-and the module's ``step_error`` helper), the candidates compare as follows:
-
-* semi-implicit (symplectic) Euler is first order in the output: ~dt*omega/2 relative
-  error, 1-3 mrad at 1 ms on these swings, and ~0.3 % energy oscillation;
-* Rosenbrock/W methods (RODAS3, ROS34PW2) are L-stable but lose badly when the friction
-  slope changes by orders of magnitude within a step (the Jacobian is frozen at the step
-  start): 1-30 mrad errors at 2-5 ms;
-* RK4 (here in its Nystroem form for q'' = a(q, q'), 4 force evaluations) reaches 4e-6 rad
-  at 5 ms for Table I Majd friction and 2e-4 to 7e-4 rad for dry-friction laws whose kink at
-  zero speed limits any fixed-step method to low order there.  The chosen default step
-  ``DEFAULT_DT`` = 2.5 ms keeps the dry-friction error near 2e-4 rad, below the 1 mrad
-  quantisation of the stand logs, at half the cost of 1 ms RK2/RK4 steps.
-
-RK4 alone fails on stiff stiction (a continuous law whose slope at zero speed is huge, as
-Majd's law becomes for small omega_c): once the body stops, RK4 chatters across zero speed
-and the chatter makes it creep spuriously (5 mrad in 3 s at 5 ms for omega_c = 1e-5 rad/s).
-Therefore a walker whose friction slope s satisfies dt * s / M > ``STIFF_KAPPA`` somewhere
-(the stiff speed band |q'| < v_band, found once per call on a logarithmic speed grid) takes,
-at every step where it is inside that band or about to cross zero speed, a fully implicit
-(backward) Euler step in velocity instead:
-
-    alpha w = q'_n + dt / M (tau_o(q_n, q'_n) + tau_friction(w)),  q_{n+1} = q_n + dt w,
-
-with gravity linearised in q (alpha = 1 - dt^2 V''/M), solved per walker by a bracketed,
-safeguarded Newton iteration.  It is L-stable and captures stick, break-away and the slow
-creep of continuous stiction laws; it only runs on steps where some walker needs it.
-
-Outputs are stored at every step with their rate and evaluated at the requested (irregular)
-times by cubic Hermite interpolation.
+Integration: fixed-step RK4 (Nystroem form) with an implicit backward-Euler step where stiff
+stiction needs it (:func:`roboball.reduced.integrate.rk4_stiction`; the module's docstring gives
+the accuracy study behind ``DEFAULT_DT`` and ``STIFF_KAPPA``); runs with a friction law alone take
+the compiled copy of that loop (:mod:`roboball.reduced.kernel`).  Outputs are stored at every
+step with their rate and evaluated at the requested (irregular) times by cubic Hermite
+interpolation (:func:`roboball.reduced.integrate.sample`).
 """
 from __future__ import annotations
 
@@ -91,9 +65,9 @@ import numpy as np
 from roboball.config import RobotFacts, load_robot
 from roboball.errors import RoboballError, SimulationError
 from roboball.kinds import MAIN_SIGNAL, OSCILLATING
-from roboball.physics import friction
 from roboball.physics import shell as shell_laws
 from roboball.reduced import kernel as reduced_kernel
+from roboball.reduced.integrate import Trajectory, friction_function, rk4_stiction, sample, stiff_band
 
 __all__ = [
     "KINDS",
@@ -102,13 +76,10 @@ __all__ = [
     "STIFF_KAPPA",
     "PlanarModel",
     "planar_model",
-    "Trajectory",
     "integrate",
-    "sample",
     "simulate_stand",
     "simulate_segments",
     "injected_shell",
-    "friction_function",
     "step_error",
 ]
 
@@ -116,7 +87,6 @@ KINDS = OSCILLATING
 COORDINATE = {k: MAIN_SIGNAL[k] for k in OSCILLATING}
 DEFAULT_DT = 2.5e-3
 STIFF_KAPPA = 2.0
-_NEWTON_MAX_IT = 40
 
 
 # ---------------------------------------------------------------------------------------------
@@ -235,51 +205,9 @@ def injected_shell(k_inject, c_inject) -> Callable:
     return tau
 
 
-def friction_function(law: str, params: Mapping) -> Callable:
-    """tau(v) of law `law` from roboball.physics.friction with the given (batched) parameters.
-
-    The parameter arguments are bound once so the time loop calls the law function directly.
-    """
-    if law not in friction.LAWS:
-        raise RoboballError(f"unknown friction law '{law}' (choose from {', '.join(friction.LAWS)})")
-    if law == "none":
-        return None
-    missing = [k for k in friction.PARAMS[law] if k not in params and not (law == "coulomb_viscous" and k == "v_tol")]
-    if missing:
-        raise RoboballError(f"friction law '{law}': missing parameter(s) {', '.join(missing)}")
-    fn = getattr(friction, law)
-    kw = {k: params[k] for k in friction.PARAMS[law] if k in params}
-    return lambda v: fn(v, **kw)
-
-
 # ---------------------------------------------------------------------------------------------
-# Integration
+# Integration (dispatch to the NumPy or the compiled loop)
 # ---------------------------------------------------------------------------------------------
-@dataclass
-class Trajectory:
-    """States at every step: times ``t`` (n+1,) from the start, ``q`` and ``qd`` (n+1, B);
-    ``work`` (n+1, B): work done by friction + extra torque since the start (or None)."""
-
-    t: np.ndarray
-    q: np.ndarray
-    qd: np.ndarray
-    work: np.ndarray | None
-    dt: float
-    implicit_steps: int = 0      # steps with an implicit stiction step (compiled loop: most of any row)
-
-
-def _stiff_band(ffun, inv_m_max, dt, kappa, batch):
-    """Per walker: the largest speed below which dt * slope / M exceeds kappa (0 if nowhere),
-    and the friction slope at zero speed.  Slopes by forward differences on a log grid."""
-    grid = np.concatenate([[0.0], np.logspace(-10, 1.5, 70)])[:, None]
-    v = grid + np.zeros((1, batch))
-    dv = np.maximum(1e-7 * grid, 1e-13)
-    slope = -(ffun(v + dv) - ffun(v)) / dv          # >= 0 where friction dissipates
-    stiff = dt * slope * inv_m_max > kappa
-    band = np.where(stiff.any(axis=0), np.max(np.where(stiff, grid * 1.5 + 1e-12, 0.0), axis=0), 0.0)
-    return band, np.maximum(slope[0], 0.0)
-
-
 def integrate(model: PlanarModel, law: str, params: Mapping, q0, qd0, duration: float,
               dt: float = DEFAULT_DT, extra_torque: Callable | None = None,
               record_work: bool = False, stiff_kappa: float = STIFF_KAPPA, compiled: bool = True,
@@ -288,12 +216,12 @@ def integrate(model: PlanarModel, law: str, params: Mapping, q0, qd0, duration: 
 
     `params` maps parameter names to scalars or (B,) arrays (friction law parameters and any
     entries `extra_torque` reads).  Fixed-step RK4 (Nystroem form) with the implicit stiction
-    step described in the module docstring.  Non-finite states are left in the output (the
+    step (:mod:`roboball.reduced.integrate`).  Non-finite states are left in the output (the
     caller decides; see :func:`simulate_stand`).
 
     With ``compiled`` (default) a run with a friction law and no extra torque or work record
     goes through the compiled loop of :mod:`roboball.reduced.kernel` (same algorithm, same
-    results to ~1e-12 rad); ``compiled=False`` forces this NumPy loop.  ``row_durations`` (B,)
+    results to ~1e-12 rad); ``compiled=False`` forces the NumPy loop.  ``row_durations`` (B,)
     lets the compiled loop stop a row early (it then holds its last state); the NumPy loop
     integrates every row for `duration` (a caller reads each row only up to its own end).
     """
@@ -304,150 +232,18 @@ def integrate(model: PlanarModel, law: str, params: Mapping, q0, qd0, duration: 
     B = q.size
     n = max(int(math.ceil(duration / dt - 1e-9)), 1)
     ffun = friction_function(law, params)
-    h, h2 = dt, dt * dt
-    gG = model.g * model.mass_moment_kg_m
-    beta = model.offset_rad
-    const_m = model.constant_inertia
-    inv_m0 = 1.0 / model.inertia0_kg_m2
+    if ffun is None:
+        return rk4_stiction(model, law, params, None, q, v, n, dt, extra_torque, record_work)
     RG = model.radius_m * model.mass_moment_kg_m
-    etor = extra_torque
-
-    def accel(qq, vv):
-        """(acceleration, non-conservative torque) at a stage."""
-        s = np.sin(qq + beta)
-        tau = ffun(vv) if ffun is not None else 0.0
-        if etor is not None:
-            tau = tau + etor(qq, vv, params)
-        if const_m:
-            return (tau - gG * s) * inv_m0, tau
-        m = model.inertia0_kg_m2 - 2.0 * RG * np.cos(qq + beta)
-        return (tau - s * (gG + RG * vv * vv)) / m, tau
-
-    Q = np.empty((n + 1, B))
-    V = np.empty((n + 1, B))
-    W = np.zeros((n + 1, B)) if record_work else None
-    Q[0], V[0] = q, v
-    work = np.zeros(B)
-
-    stiff_rows = None
-    if ffun is not None:
-        m_min = model.inertia0_kg_m2 - 2.0 * RG
-        band, slope0 = _stiff_band(ffun, 1.0 / m_min, dt, stiff_kappa, B)
-        if compiled and reduced_kernel.supports(law, etor, record_work):
-            # the same algorithm in machine code (roboball.reduced.kernel), rows in parallel
-            n_rows = None if row_durations is None else \
-                np.ceil(np.asarray(row_durations, dtype=float).ravel() / dt - 1e-9).astype(np.int64)
-            Qr, Vr, n_impl = reduced_kernel.integrate_rows(model, law, params, q, v, n, dt, band, slope0, n_rows)
-            return Trajectory(np.arange(n + 1) * dt, Qr.T, Vr.T, None, dt, n_impl)
-        if np.any(band > 0):
-            stiff_rows = band > 0
-    n_impl = 0
-    for i in range(n):
-        a1, t1 = accel(q, v)
-        qh = q + (0.5 * h) * v
-        v2 = v + (0.5 * h) * a1
-        a2, t2 = accel(qh, v2)
-        v3 = v + (0.5 * h) * a2
-        a3, t3 = accel(qh + (0.25 * h2) * a1, v3)
-        qf = q + h * v
-        v4 = v + h * a3
-        a4, t4 = accel(qf + (0.5 * h2) * a2, v4)
-        q_new = qf + (h2 / 6.0) * (a1 + a2 + a3)
-        v_new = v + (h / 6.0) * (a1 + 2.0 * (a2 + a3) + a4)
-        if record_work:
-            work_new = work + (h / 6.0) * (t1 * v + 2.0 * (t2 * v2 + t3 * v3) + t4 * v4)
-        if stiff_rows is not None:
-            in_band = np.abs(v) < band
-            flag = stiff_rows & (in_band | (np.abs(v_new) < band) | (v * v_new < 0.0))
-            if flag.any():
-                n_impl += 1
-                idx = np.nonzero(flag)[0]
-                sub = {k: (val[idx] if np.ndim(val) > 0 else val) for k, val in params.items()}
-                qi, vi, ti = _implicit_step(model, friction_function(law, sub), etor, sub,
-                                            q[idx], v[idx], h, slope0[idx])
-                # a crossing of zero speed that does not stick stays with RK4 (higher order);
-                # inside the stiff band, or when the implicit step sticks, take the implicit one
-                take = in_band[idx] | (np.abs(vi) < band[idx])
-                rows_i = idx[take]
-                q_new[rows_i] = qi[take]
-                v_new[rows_i] = vi[take]
-                if record_work:
-                    work_new[rows_i] = work[rows_i] + h * ti[take] * vi[take]
-        q, v = q_new, v_new
-        Q[i + 1], V[i + 1] = q, v
-        if record_work:
-            work = work_new
-            W[i + 1] = work
-    return Trajectory(np.arange(n + 1) * dt, Q, V, W, dt, n_impl)
-
-
-def _implicit_step(model, ffun, etor, params, q, v, h, slope0):
-    """Backward-Euler step in velocity (gravity linearised in q); returns (q1, v1, tau(v1))."""
-    s = np.sin(q + model.offset_rad)
-    c_ = np.cos(q + model.offset_rad)
-    gG = model.g * model.mass_moment_kg_m
-    RG = model.radius_m * model.mass_moment_kg_m
-    m = model.inertia0_kg_m2 - 2.0 * RG * c_
-    tau_o = -s * (gG + RG * v * v)
-    e = 0.0
-    if etor is not None:
-        e = etor(q, v, params)
-        tau_o = tau_o + e
-    kq = -gG * c_                                   # d(-V')/dq
-    hm = h / m
-    alpha = 1.0 - h * hm * kq
-    c = v + hm * tau_o
-    w_free = c / alpha
-    f_free = ffun(w_free)
-    w_slip = (c + hm * f_free) / alpha
-    sgn = np.sign(c)
-    lo = np.minimum(0.0, w_free)
-    hi = np.maximum(0.0, w_free)
-    w_stick = c / (alpha + hm * slope0)
-    w = np.where(sgn * w_slip > 0, w_slip, np.where((sgn * v > 0) & (np.abs(v) < np.abs(w_free)), v, w_stick))
-    scale = np.abs(c) + 1e-300
-    f = ffun(w)
-    for _ in range(_NEWTON_MAX_IT):
-        r = alpha * w - c - hm * f
-        done = np.abs(r) <= 1e-11 * scale + 1e-14
-        if done.all():
-            break
-        # r is increasing in w: shrink the bracket with the sign of r
-        hi = np.where(r > 0, np.minimum(hi, w), hi)
-        lo = np.where(r < 0, np.maximum(lo, w), lo)
-        dw = np.maximum(1e-7 * np.abs(w), 1e-13)
-        dfdw = (ffun(w + dw) - f) / dw
-        rp = alpha - hm * dfdw
-        w_n = w - r / np.where(rp > 0.05 * alpha, rp, alpha)
-        bad = ~((w_n > lo) & (w_n < hi))
-        w_n = np.where(bad, 0.5 * (lo + hi), w_n)
-        w = np.where(done, w, w_n)
-        f = ffun(w)
-    return q + h * w, w, f + e
-
-
-def sample(traj: Trajectory, t, rows: slice | np.ndarray | None = None) -> np.ndarray:
-    """Cubic Hermite interpolation of q at times `t` (from the trajectory's start; (n_t,)).
-
-    Returns (B_rows, n_t).  Times before the start give the initial value (the body is held
-    until released); times after the end are an error of the caller (the trajectory is
-    always integrated past the last requested time).
-    """
-    t = np.asarray(t, dtype=float)
-    Q = traj.q if rows is None else traj.q[:, rows]
-    Vd = traj.qd if rows is None else traj.qd[:, rows]
-    n = Q.shape[0] - 1
-    dt = traj.dt
-    tc = np.clip(t, 0.0, n * dt)
-    k = np.minimum((tc / dt).astype(int), n - 1)
-    u = (tc - k * dt) / dt
-    u2, u3 = u * u, u * u * u
-    h00 = (2 * u3 - 3 * u2 + 1)[:, None]
-    h10 = (u3 - 2 * u2 + u)[:, None] * dt
-    h01 = (-2 * u3 + 3 * u2)[:, None]
-    h11 = (u3 - u2)[:, None] * dt
-    out = h00 * Q[k] + h10 * Vd[k] + h01 * Q[k + 1] + h11 * Vd[k + 1]
-    return out.T
+    m_min = model.inertia0_kg_m2 - 2.0 * RG
+    band, slope0 = stiff_band(ffun, 1.0 / m_min, dt, stiff_kappa, B)
+    if compiled and reduced_kernel.supports(law, extra_torque, record_work):
+        # the same algorithm in machine code (roboball.reduced.kernel), rows in parallel
+        n_rows = None if row_durations is None else \
+            np.ceil(np.asarray(row_durations, dtype=float).ravel() / dt - 1e-9).astype(np.int64)
+        Qr, Vr, n_impl = reduced_kernel.integrate_rows(model, law, params, q, v, n, dt, band, slope0, n_rows)
+        return Trajectory(np.arange(n + 1) * dt, Qr.T, Vr.T, None, dt, n_impl)
+    return rk4_stiction(model, law, params, ffun, q, v, n, dt, extra_torque, record_work, band, slope0)
 
 
 # ---------------------------------------------------------------------------------------------

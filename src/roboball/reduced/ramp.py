@@ -9,7 +9,7 @@ Model: two rigid bodies in the vertical plane of the descent.
   the driveshaft) on an incline of angle alpha: its centre moves by s along the slope and it
   turns by theta about the robot's +y (positive rolling downhill); theta' is the recording's
   drive_rate.  It rolls on the radius R of Drake's compliant point contact
-  (roboball.reduced.batched.rolling_radius);
+  (roboball.reduced.shell.rolling_radius);
 * the pitch centre and pendulum (steering held at zero, as one body: mass m_p, centre of mass
   a distance -z_c below the centre in its own frame, inertia I_p about the driveshaft through
   its centre of mass) swing about the driveshaft with world pitch angle beta (0 = hanging).
@@ -35,7 +35,9 @@ logs; the planar model then runs up to 0.2% (Table I) or 0.6% (fitted) of the to
 +0.02% or +0.09% by eq. 12 (tests/test_diagnose_models.py).
 
 Integration: explicit midpoint (RK2) with a fixed step (2 ms), the contact mode frozen within
-a step, like roboball.reduced.batched.
+a step.  The loop is the model's own, not roboball.reduced.integrate.midpoint: it carries five
+coordinates and a contact mode, and reuses the derivative at the end of a step as the recorded
+rate and the next step's first stage.
 """
 from __future__ import annotations
 
@@ -44,7 +46,8 @@ import math
 import numpy as np
 
 from roboball.config import RobotFacts, load_robot
-from roboball.reduced.batched import DT, ReducedModel, active_effects, rolling_radius
+from roboball.reduced.base import DT, ReducedModel, active_effects
+from roboball.reduced.shell import rolling_radius
 from roboball.physics import friction as friction_laws
 
 
@@ -106,9 +109,61 @@ class RampModel(ReducedModel):
 
     def simulate(self, q0, P: dict, n_steps: int, dt: float = DT):
         """Released from rest (pendulum hanging) for a batch; returns drive rate and its
-        derivative at every step, (n_steps + 1, B) each.  `q0` only sets the batch size."""
+        derivative at every step, (n_steps + 1, B) each.  `q0` only sets the batch size.
+
+        Explicit midpoint with the contact mode frozen within a step; the derivative at the end
+        of a step is the output's rate and the next step's first stage."""
         B = np.asarray(q0).shape[0]
         active = active_effects(P, self.candidates)
+        deriv = self._equations(self.bind_effects(P, active) if active else None)
+        Y = np.empty((n_steps + 1, B))
+        Yd = np.empty((n_steps + 1, B))
+        th, be, vs, w, wb = (np.zeros(B) for _ in range(5))
+        sliding = np.zeros(B, bool)
+        direction = np.zeros(B)
+        h2 = 0.5 * dt
+        as1, a1, b1, f_req, normal = deriv(th, be, vs, w, wb, sliding, direction)
+        Y[0], Yd[0] = w, a1
+        for k in range(1, n_steps + 1):
+            sliding, direction, vs, w, changed = self._contact_mode(sliding, direction, f_req, normal, vs, w)
+            if changed:
+                as1, a1, b1, f_req, normal = deriv(th, be, vs, w, wb, sliding, direction)
+            as2, a2, b2, _, _ = deriv(th + h2 * w, be + h2 * wb, vs + h2 * as1, w + h2 * a1, wb + h2 * b1,
+                                      sliding, direction)
+            th = th + dt * (w + h2 * a1)
+            be = be + dt * (wb + h2 * b1)
+            vs = vs + dt * as2
+            w = w + dt * a2
+            wb = wb + dt * b2
+            as1, a1, b1, f_req, normal = deriv(th, be, vs, w, wb, sliding, direction)
+            Y[k], Yd[k] = w, a1
+        return Y, Yd
+
+    def _contact_mode(self, sliding, direction, f_req, normal, vs, w):
+        """Contact mode for the next step: start sliding where rolling needs more than mu N;
+        stick again where the slip velocity has reversed.  Returns (sliding, direction, vs, w,
+        whether any member slides so that the step's first derivative must be re-evaluated)."""
+        M, R, mu, i_s = self.m_s + self.m_p, self.radius, self.mu, self.i_s
+        start = ~sliding & (np.abs(f_req) > mu * np.maximum(normal, 0.0))
+        if start.any():
+            direction = np.where(start, np.sign(f_req), direction)
+            sliding = sliding | start
+        if not sliding.any():
+            return sliding, direction, vs, w, False
+        slip = vs - R * w
+        stick = sliding & (slip * direction > 0)      # friction would now push the slip on
+        if stick.any():
+            # Plastic re-stick: common rolling speed from the shell's momentum about the contact.
+            w_new = (M * R * vs + i_s * w) / (M * R * R + i_s)
+            w = np.where(stick, w_new, w)
+            vs = np.where(stick, R * w_new, vs)
+            sliding = sliding & ~stick
+        return sliding, direction, vs, w, True
+
+    def _equations(self, extra):
+        """deriv(theta, beta, s', theta', beta', sliding, direction) -> (s'', theta'', beta'', the
+        friction the rolling mode needs, the normal force) for the current contact mode of each
+        member; `extra(q, v, tau)` adds the effects' torques on the rolling coordinate."""
         M, m_p, zc = self.m_s + self.m_p, self.m_p, self.z_c
         R, a, g, mu, i_s = self.radius, self.alpha, self.g, self.mu, self.i_s
         m22 = self.i_p + m_p * zc ** 2
@@ -118,11 +173,8 @@ class RampModel(ReducedModel):
         n0 = M * g * math.cos(a)
         mgz = m_p * g * zc
         mj = self.majd
-        extra = self.bind_effects(P, active) if active else None
 
         def deriv(th, be, vs, w, wb, sliding, direction):
-            """Accelerations (s'', theta'', beta''), the friction the rolling mode needs and
-            the normal force, for the current contact mode of each member."""
             cba = np.cos(be - a)
             sba = np.sin(be - a)
             tau_d = friction_laws.majd(wb - w, mj["f_w"], mj["f_c"], mj["sigma"], mj["omega_c"], mj["n"])
@@ -151,38 +203,4 @@ class RampModel(ReducedModel):
             return (np.where(sliding, s_sl, R * th_r), np.where(sliding, th_sl, th_r),
                     np.where(sliding, be_sl, be_r), f_req, normal)
 
-        Y = np.empty((n_steps + 1, B))
-        Yd = np.empty((n_steps + 1, B))
-        th, be, vs, w, wb = (np.zeros(B) for _ in range(5))
-        sliding = np.zeros(B, bool)
-        direction = np.zeros(B)
-        h2 = 0.5 * dt
-        as1, a1, b1, f_req, normal = deriv(th, be, vs, w, wb, sliding, direction)
-        Y[0], Yd[0] = w, a1
-        for k in range(1, n_steps + 1):
-            # Contact mode for this step: start sliding where rolling needs more than mu N;
-            # stick again where the slip velocity has reversed.
-            start = ~sliding & (np.abs(f_req) > mu * np.maximum(normal, 0.0))
-            if start.any():
-                direction = np.where(start, np.sign(f_req), direction)
-                sliding = sliding | start
-            if sliding.any():
-                slip = vs - R * w
-                stick = sliding & (slip * direction > 0)      # friction would now push the slip on
-                if stick.any():
-                    # Plastic re-stick: common rolling speed from the shell's momentum about the contact.
-                    w_new = (M * R * vs + i_s * w) / (M * R * R + i_s)
-                    w = np.where(stick, w_new, w)
-                    vs = np.where(stick, R * w_new, vs)
-                    sliding = sliding & ~stick
-                as1, a1, b1, f_req, normal = deriv(th, be, vs, w, wb, sliding, direction)
-            as2, a2, b2, _, _ = deriv(th + h2 * w, be + h2 * wb, vs + h2 * as1, w + h2 * a1, wb + h2 * b1,
-                                      sliding, direction)
-            th = th + dt * (w + h2 * a1)
-            be = be + dt * (wb + h2 * b1)
-            vs = vs + dt * as2
-            w = w + dt * a2
-            wb = wb + dt * b2
-            as1, a1, b1, f_req, normal = deriv(th, be, vs, w, wb, sliding, direction)
-            Y[k], Yd[k] = w, a1
-        return Y, Yd
+        return deriv

@@ -18,8 +18,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from roboball.metrics import pme
-from roboball.sim.plant import ShellParams, SimSpec, build
+from roboball.sim.plant import build
 from roboball.sim.scenarios import simulate
+from roboball.sim.spec import ShellParams, SimSpec
 
 # The benchmark's shell at 13.8 kPa (the mid test pressure): zeta and omega_n close to the
 # test bed's regression there, and the paper's carried-forward hydroelastic dissipation x0.5.

@@ -1,9 +1,9 @@
 """One plant-building path for every scenario.
 
-`build(spec)` generates the URDF variant for the scenario from the robot facts, adds it to a
-discrete MultibodyPlant, welds or grounds it as the experiment requires, and wires the
-generalised-force system (joint friction, injected shell, extra effects) into the plant's
-applied-generalised-force port.  Diagram, read top to bottom:
+`build(spec)` (a `roboball.sim.spec.SimSpec`) generates the URDF variant for the scenario from
+the robot facts, adds it to a discrete MultibodyPlant, welds or grounds it as the experiment
+requires, and wires the generalised-force system (joint friction, injected shell, extra effects)
+into the plant's applied-generalised-force port.  Diagram, read top to bottom:
 
     robot.yaml --make_urdf--> MultibodyPlant <--tau-- SymbolicVectorSystem(friction + shell)
                                    |  state  ----------------^
@@ -35,26 +35,28 @@ Discrete contact approximations, chosen on purpose (`approximation_for`):
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+import warnings
+from dataclasses import dataclass
 
 import numpy as np
 from pydrake.geometry import (AddRigidHydroelasticProperties, HalfSpace, ProximityProperties,
                               SceneGraph)
-from pydrake.math import RigidTransform, RotationMatrix, RollPitchYaw
-from pydrake.multibody.plant import (AddMultibodyPlant, CoulombFriction, MultibodyPlantConfig)
+from pydrake.math import RigidTransform, RotationMatrix
+from pydrake.multibody.plant import (AddMultibodyPlant, CoulombFriction, MultibodyPlant,
+                                     MultibodyPlantConfig)
 from pydrake.multibody.parsing import Parser
-from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import Adder, LogVectorOutput
+from pydrake.systems.framework import Diagram, DiagramBuilder, System
+from pydrake.systems.primitives import Adder, LogVectorOutput, SymbolicVectorSystem, VectorLogSink
 
-from roboball.config import RobotFacts, load_robot
+from roboball.config import RobotFacts
 from roboball.kinds import SIMULATED
 from roboball.physics import friction as friction_laws
-from roboball.physics import shell as shell_laws
+from roboball.sim.forces import ForceTerm, JointFriction, StateLayout, build_force_system
+from roboball.sim.pressure import scheduled_shell_system
+from roboball.sim.shell import injected_term, shell_coefficients, shell_tags
+from roboball.sim.spec import CONTACTS, SimSpec
 from roboball.sim.urdf import ShellTags, make_urdf
-from roboball.sim.forces import InjectedShell, JointFriction, StateLayout, build_force_system
 
-KINDS = SIMULATED
-CONTACTS = ("point", "injected", "hydroelastic")
 APPROXIMATION = "lagged"            # point and injected contact
 HYDRO_APPROXIMATION = "tamsi"       # hydroelastic contact (falls back to APPROXIMATION where Drake lacks it)
 _AVAILABLE: dict = {}
@@ -63,8 +65,6 @@ _AVAILABLE: dict = {}
 def approximation_available(name: str) -> bool:
     """Whether this Drake build offers the discrete contact approximation `name`."""
     if name not in _AVAILABLE:
-        import warnings
-
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
@@ -81,10 +81,10 @@ def approximation_for(contact: str) -> str:
     if contact == "hydroelastic":
         if approximation_available(HYDRO_APPROXIMATION):
             return HYDRO_APPROXIMATION
-        import warnings
         warnings.warn(f"this Drake has no '{HYDRO_APPROXIMATION}' contact approximation: hydroelastic runs use "
                       f"'{APPROXIMATION}' (same model, results within 0.4%, about 3x slower)", stacklevel=2)
     return APPROXIMATION
+
 
 # Per scenario: joints emitted as fixed, tree root, whether the root is welded (stand).
 _LAYOUT = {
@@ -97,122 +97,22 @@ _LAYOUT = {
 
 
 @dataclass
-class ShellParams:
-    """Shell terms at one pressure.  zeta/omega_n drive the injected model (eq. 7-8) and the
-    hydroelastic dissipation (eq. 11); hydro_modulus defaults to eq. 10."""
-
-    zeta: float | None = None
-    omega_n: float | None = None
-    hydro_modulus: float | None = None          # Pa; None -> eq. 10 at the pressure
-    hydro_dissipation: float | None = None      # s/m; None -> eq. 11 (C_inject)
-    modulus_scale: float = 1.0                  # sensitivity sweep factors (section III-D)
-    dissipation_scale: float = 1.0
-    injected_steer: bool = True                 # injected K, C about the steer (roll) direction
-    injected_drive: bool = True                 # injected C about the driveshaft (section IV)
-    # "planar": eq. 9 in the steer plane + drive damping (paper); "3d": roboball.sim.shell3d,
-    # K on the base's tilt and C on the pipe's rolling rate about both horizontal axes (the
-    # steer/drive flags above are the planar model's; the 3-D model always has both terms).
-    geometry: str = "planar"
-
-
-@dataclass
-class SimSpec:
-    kind: str
-    contact: str = "point"
-    friction: dict = field(default_factory=lambda: {"steer": "none", "drive": "none"})
-    friction_params: dict = field(default_factory=dict)   # joint -> params (default Table I)
-    pressure_kpa: float | None = None
-    shell: ShellParams = field(default_factory=ShellParams)
-    dt: float = 1e-3
-    ramp_angle_deg: float | None = None
-    extra_terms: list = field(default_factory=list)       # additional ForceTerms (diagnosis)
-    lock_joints: tuple = ()                               # extra joints emitted as fixed
-    approximation: str | None = None                      # discrete contact approximation (None: approximation_for)
-    extra_systems: list = field(default_factory=list)     # fn(layout, dt) -> System: state in, tau out
-    resolution_hint: float | None = None                  # override the hydroelastic mesh hint (m)
-    ramp_length_m: float | None = None                    # finite ramp ending on a flat floor
-    robot: RobotFacts | None = None
-    heading_deg: float = 0.0                              # yaw of the whole scene about world z (ground + release)
-    # Time-varying pressure (roboball.sim.pressure): with contact "injected" the shell follows
-    # pressure_schedule (a PressureSchedule) through shell_laws (ShellLaws: zeta(p), omega_n(p))
-    # as an input, instead of fixed K, C; hydroelastic schedules are run by pressure.simulate_schedule.
-    pressure_schedule: object = None
-    shell_laws: object = None
-    # Drake's sampled output ports (its default) or outputs computed on demand (ours, see build()).
-    # With only stateless force systems in the loop (every model here) the two give bit-identical
-    # runs; with a discrete-state system beside the plant (the test bed's LuGre friction) they
-    # differ by the step at which that system sees the plant's state, so the virtual test bed
-    # keeps Drake's default and its campaign regenerates bit-for-bit.
-    sampled_output_ports: bool = False
-
-    def resolved_robot(self) -> RobotFacts:
-        return self.robot if self.robot is not None else load_robot()
-
-
-@dataclass
 class Built:
-    diagram: object
-    plant: object
-    scene_graph: object
+    """A built scenario: the diagram and the parts a run reads (see `build`)."""
+
+    diagram: Diagram
+    plant: MultibodyPlant
+    scene_graph: SceneGraph
     layout: StateLayout
     spec: SimSpec
     robot: RobotFacts
-    injected: InjectedShell | None
+    injected: ForceTerm | None                    # the injected-shell term (constant pressure)
     shell_tags: ShellTags
-    logger: object = None
-    force_system: object = None
-
-
-def _require_shell_rocking(spec: SimSpec) -> None:
-    """Refuse a spec whose contact needs the shell's zeta and omega_n but lacks them."""
-    if spec.shell.zeta is None or spec.shell.omega_n is None:
-        raise ValueError(f"contact '{spec.contact}' needs the shell's zeta and omega_n at the pressure "
-                         "(pass --zeta/--omega-n or a shell regression table)")
-
-
-def shell_coefficients(robot: RobotFacts, spec: SimSpec) -> tuple[float, float]:
-    """(K_inject, C_inject) from the spec's zeta and omega_n (eq. 7-8)."""
-    _require_shell_rocking(spec)
-    sp = spec.shell
-    k = shell_laws.k_inject(sp.omega_n, robot.M_eq, robot.K_eq)
-    c = shell_laws.c_inject(sp.zeta, sp.omega_n, robot.M_eq)
-    return k, c
-
-
-GEOMETRIES = ("planar", "3d")
-
-
-def injected_term(k, c, shell: ShellParams, normal=(0.0, 0.0, 1.0)):
-    """The injected-shell force term for `shell.geometry`: the paper's planar eq. 9 or the 3-D
-    version (roboball.sim.shell3d).  k, c may be numbers or symbolic expressions."""
-    if shell.geometry == "planar":
-        return InjectedShell(k, c, steer=shell.injected_steer, drive=shell.injected_drive)
-    if shell.geometry == "3d":
-        from roboball.sim.shell3d import InjectedShell3D
-        return InjectedShell3D(k, c, normal=tuple(float(x) for x in normal))
-    raise ValueError(f"unknown injected-shell geometry '{shell.geometry}' (choose from {', '.join(GEOMETRIES)})")
-
-
-def shell_tags(robot: RobotFacts, spec: SimSpec) -> ShellTags:
-    """Contact properties of the bedliner for this spec (eq. 10-11 for hydroelastic), starting
-    from the robot facts' own (ShellTags.of, what an exported URDF carries)."""
-    facts = ShellTags.of(robot)
-    hint = spec.resolution_hint or facts.resolution_hint
-    modulus, dissipation = facts.hydro_modulus, facts.hunt_crossley
-    if spec.contact == "hydroelastic":
-        sp = spec.shell
-        if sp.hydro_modulus is not None:
-            modulus = sp.hydro_modulus
-        elif spec.pressure_kpa is not None:
-            modulus = shell_laws.hydro_modulus(spec.pressure_kpa * 1e3, robot.weight_n, robot.radius)
-        if sp.hydro_dissipation is not None:
-            dissipation = sp.hydro_dissipation
-        else:
-            _require_shell_rocking(spec)
-            dissipation = shell_laws.hydro_dissipation(sp.zeta, sp.omega_n, robot.M_eq)
-        modulus *= sp.modulus_scale
-        dissipation *= sp.dissipation_scale
-    return replace(facts, hydro_modulus=modulus, hunt_crossley=dissipation, resolution_hint=hint)
+    logger: VectorLogSink | None = None
+    force_system: SymbolicVectorSystem | None = None
+    ramp_alpha: float = 0.0                       # slope of the ground (rad), 0 on the flat
+    ground_normal: np.ndarray | None = None       # unit normal of the ground in the world
+    pressure_system: Diagram | None = None        # the scheduled injected shell (pressure input)
 
 
 def ground_normal(alpha: float, heading_deg: float = 0.0) -> np.ndarray:
@@ -264,23 +164,70 @@ def _layout(plant) -> StateLayout:
 
 
 def build(spec: SimSpec, sample_period: float | None = None, meshcat=None) -> Built:
-    """Build the diagram for `spec`.  `sample_period` adds a state logger at that period."""
-    if spec.kind not in KINDS:
-        raise ValueError(f"unknown kind '{spec.kind}' (choose from {', '.join(KINDS)})")
+    """Build the diagram for `spec`, step by step in Drake's order: the plant with the robot
+    and its ground, the generalised-force systems, logging (and a visualiser).
+
+    Args:
+        spec: the scenario.
+        sample_period: adds a state logger at that period (s).
+        meshcat: a Meshcat instance to visualise the run in, or None.
+    Returns:
+        The :class:`Built` diagram and its parts.
+    """
+    _check_spec(spec)
+    robot = spec.resolved_robot()
+    tags = shell_tags(robot, spec)
+    urdf = _scenario_urdf(spec, robot, tags)
+
+    builder = DiagramBuilder()
+    plant, scene_graph = AddMultibodyPlant(_plant_config(spec), builder)
+    alpha = _add_robot(plant, spec, robot, urdf)
+    layout = _layout(plant)
+
+    terms = _joint_friction(spec, robot)
+    normal = ground_normal(alpha, spec.heading_deg)
+    injected, pressure_system = _shell_force(spec, robot, layout, normal)
+    if injected is not None:
+        terms.append(injected)
+    terms.extend(spec.extra_terms)
+    force_system = build_force_system(layout, terms)
+    sources = [force_system] if force_system is not None else []
+    if pressure_system is not None:
+        sources.append(pressure_system)
+    sources += [make(layout, spec.dt) for make in spec.extra_systems]
+    _apply_forces(builder, plant, layout, sources)
+
+    logger = None
+    if sample_period is not None:
+        logger = LogVectorOutput(plant.get_state_output_port(), builder, sample_period)
+    if meshcat is not None:
+        from pydrake.geometry import MeshcatVisualizer
+        MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat)
+    diagram = builder.Build()
+    return Built(diagram, plant, scene_graph, layout, spec, robot, injected, tags, logger, force_system,
+                 ramp_alpha=alpha, ground_normal=normal, pressure_system=pressure_system)
+
+
+def _check_spec(spec: SimSpec) -> None:
+    if spec.kind not in SIMULATED:
+        raise ValueError(f"unknown kind '{spec.kind}' (choose from {', '.join(SIMULATED)})")
     if spec.contact not in CONTACTS:
         raise ValueError(f"unknown contact model '{spec.contact}' (choose from {', '.join(CONTACTS)})")
     if spec.pressure_schedule is not None and spec.contact == "hydroelastic":
         raise ValueError("hydroelastic contact properties cannot follow a pressure schedule inside one step: "
-                         "run the schedule with roboball.sim.pressure.simulate_schedule (properties replaced "
+                         "run the schedule with roboball.sim.schedule_run.simulate_schedule (properties replaced "
                          "between segments)")
-    robot = spec.resolved_robot()
-    lay = _LAYOUT[spec.kind]
-    tags = shell_tags(robot, spec)
-    fixed = tuple(sorted(set(lay["fixed"]) | set(spec.lock_joints)))
-    urdf = make_urdf(robot, fixed_joints=fixed, root=lay["root"], shell=tags)
 
-    builder = DiagramBuilder()
-    cfg = MultibodyPlantConfig(
+
+def _scenario_urdf(spec: SimSpec, robot: RobotFacts, tags: ShellTags) -> str:
+    """The robot's URDF with the scenario's fixed joints and root (and any locked by the spec)."""
+    lay = _LAYOUT[spec.kind]
+    fixed = tuple(sorted(set(lay["fixed"]) | set(spec.lock_joints)))
+    return make_urdf(robot, fixed_joints=fixed, root=lay["root"], shell=tags)
+
+
+def _plant_config(spec: SimSpec) -> MultibodyPlantConfig:
+    return MultibodyPlantConfig(
         time_step=spec.dt,
         # Outputs computed from the current state on demand, not sampled at every step: with
         # sampled ports (Drake's default) the plant computes and stores its contact results,
@@ -291,7 +238,12 @@ def build(spec: SimSpec, sample_period: float | None = None, meshcat=None) -> Bu
         discrete_contact_approximation=spec.approximation or approximation_for(spec.contact),
         contact_model="hydroelastic_with_fallback" if spec.contact == "hydroelastic" else "point",
     )
-    plant, scene_graph = AddMultibodyPlant(cfg, builder)
+
+
+def _add_robot(plant: MultibodyPlant, spec: SimSpec, robot: RobotFacts, urdf: str) -> float:
+    """Parse the robot, weld it (stands) or give it its ground, set gravity and finalise the
+    plant; returns the ground's slope (rad)."""
+    lay = _LAYOUT[spec.kind]
     Parser(plant).AddModelsFromString(urdf, "urdf")
     if lay["welded"]:
         plant.WeldFrames(plant.world_frame(), plant.GetFrameByName(lay["root"]))
@@ -301,8 +253,11 @@ def build(spec: SimSpec, sample_period: float | None = None, meshcat=None) -> Bu
         alpha = _ground(plant, robot, spec.kind, ramp, spec.ramp_length_m, spec.heading_deg)
     plant.mutable_gravity_field().set_gravity_vector([0.0, 0.0, -robot.g])
     plant.Finalize()
-    layout = _layout(plant)
+    return alpha
 
+
+def _joint_friction(spec: SimSpec, robot: RobotFacts) -> list[ForceTerm]:
+    """The friction law of each joint (Table I parameters unless the spec gives its own)."""
     terms = []
     for joint in ("steer", "drive"):
         law = spec.friction.get(joint, "none")
@@ -310,27 +265,25 @@ def build(spec: SimSpec, sample_period: float | None = None, meshcat=None) -> Bu
             raise ValueError(f"unknown friction law '{law}' (choose from {', '.join(friction_laws.LAWS)})")
         params = spec.friction_params.get(joint) or friction_laws.table1_params(robot, law, joint)
         terms.append(JointFriction(joint, law, params))
-    injected = None
-    normal = ground_normal(alpha, spec.heading_deg)
-    pressure_system = None
-    if spec.contact == "injected" and layout.base_v is not None:
-        if spec.pressure_schedule is not None:
-            if spec.shell_laws is None:
-                raise ValueError("a pressure schedule needs the shell's regression laws zeta(p), omega_n(p) "
-                                 "(SimSpec.shell_laws, e.g. from results/identify/shell_regression.csv)")
-            from roboball.sim.pressure import scheduled_shell_system
-            pressure_system = scheduled_shell_system(layout, spec.shell_laws, robot, spec.pressure_schedule,
-                                                     spec.shell, normal)
-        else:
-            k, c = shell_coefficients(robot, spec)
-            injected = injected_term(k, c, spec.shell, normal)
-            terms.append(injected)
-    terms.extend(spec.extra_terms)
-    force_system = build_force_system(layout, terms)
-    sources = [force_system] if force_system is not None else []
-    if pressure_system is not None:
-        sources.append(pressure_system)
-    sources += [make(layout, spec.dt) for make in spec.extra_systems]
+    return terms
+
+
+def _shell_force(spec: SimSpec, robot: RobotFacts, layout: StateLayout, normal):
+    """(injected-shell term at constant pressure, or None; scheduled-pressure shell system, or
+    None): only injected contact of a robot on the ground has either."""
+    if spec.contact != "injected" or layout.base_v is None:
+        return None, None
+    if spec.pressure_schedule is None:
+        k, c = shell_coefficients(robot, spec)
+        return injected_term(k, c, spec.shell, normal), None
+    if spec.shell_laws is None:
+        raise ValueError("a pressure schedule needs the shell's regression laws zeta(p), omega_n(p) "
+                         "(SimSpec.shell_laws, e.g. from results/identify/shell_regression.csv)")
+    return None, scheduled_shell_system(layout, spec.shell_laws, robot, spec.pressure_schedule, spec.shell, normal)
+
+
+def _apply_forces(builder: DiagramBuilder, plant: MultibodyPlant, layout: StateLayout, sources: list[System]) -> None:
+    """Feed the plant state to every force source and their sum to the applied-force port."""
     for system in sources:
         builder.AddSystem(system)
         builder.Connect(plant.get_state_output_port(), system.get_input_port(0))
@@ -341,16 +294,3 @@ def build(spec: SimSpec, sample_period: float | None = None, meshcat=None) -> Bu
         for k, system in enumerate(sources):
             builder.Connect(system.get_output_port(0), adder.get_input_port(k))
         builder.Connect(adder.get_output_port(0), plant.get_applied_generalized_force_input_port())
-
-    logger = None
-    if sample_period is not None:
-        logger = LogVectorOutput(plant.get_state_output_port(), builder, sample_period)
-    if meshcat is not None:
-        from pydrake.geometry import MeshcatVisualizer
-        MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat)
-    diagram = builder.Build()
-    built = Built(diagram, plant, scene_graph, layout, spec, robot, injected, tags, logger, force_system)
-    built.ramp_alpha = alpha
-    built.ground_normal = normal
-    built.pressure_system = pressure_system
-    return built

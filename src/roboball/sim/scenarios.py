@@ -1,6 +1,6 @@
 """Scenario runs: set the released initial state, simulate, and return a recording.
 
-Scenarios (one builder each, all through `roboball.sim.plant.build`):
+Scenarios (specs: `roboball.sim.spec.SimSpec`; all built by `roboball.sim.plant.build`):
 
 * `steer_stand`: stand holds the pitch centre and the pipe (outer rolling locked); the pendulum
   swings about the steer joint.  Main coordinate theta = steer_angle.
@@ -24,10 +24,10 @@ from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
 from pydrake.systems.analysis import Simulator
 
 from roboball.errors import SimulationError
-from roboball.kinds import MAIN_SIGNAL, SIM_SIGNALS, STANDS
+from roboball.kinds import SIM_SIGNALS, STANDS
 from roboball.sim.forces import Kin
-from roboball.sim.plant import Built, SimSpec, build
-
+from roboball.sim.plant import Built, build
+from roboball.sim.spec import SimSpec
 
 
 def set_release(built: Built, context, release: float, steer0: float = 0.0) -> None:
@@ -47,8 +47,7 @@ def set_release(built: Built, context, release: float, steer0: float = 0.0) -> N
         plant.GetJointByName("drive").set_angle(pctx, release)
     else:
         r = built.robot.radius
-        alpha = getattr(built, "ramp_alpha", 0.0)
-        normal = getattr(built, "ground_normal", np.array([math.sin(alpha), 0.0, math.cos(alpha)]))
+        normal = built.ground_normal
         R = RotationMatrix(RollPitchYaw(release, 0.0, 0.0))
         heading = built.spec.heading_deg
         if heading:   # the whole scene turned about world z: the robot's release pose with it
@@ -158,9 +157,7 @@ def _check_state(built: Built, x: np.ndarray, t: float) -> None:
         raise SimulationError(f"simulation blew up: |velocity| {np.max(np.abs(v)):.3g} > 1e3 ({where})")
     if lay.base_q is not None:
         p = x[lay.base_q + 4: lay.base_q + 7]
-        alpha = getattr(built, "ramp_alpha", 0.0)
-        normal = getattr(built, "ground_normal", np.array([math.sin(alpha), 0.0, math.cos(alpha)]))
-        height = float(np.dot(p, normal))
+        height = float(np.dot(p, built.ground_normal))
         if height < 0.5 * built.robot.radius:
             raise SimulationError(f"shell penetrated the ground by {built.robot.radius - height:.3f} m ({where})")
 
@@ -190,7 +187,7 @@ def simulate(spec: SimSpec, release: float, duration: float, sample_rate_hz: flo
     `max_wall_s` (or the environment variable ROBOBALL_SIM_MAX_WALL_S; default none), checked
     between chunks.  With `return_states` the logged plant states (n_x by N) come back too:
     (df, states).  `before_chunk(built, context, t0, t1)`, when given, runs before each chunk
-    is simulated (e.g. to replace contact properties between segments: roboball.sim.pressure).
+    is simulated (e.g. to replace contact properties between segments: roboball.sim.schedule_run).
     """
     budget = _max_wall_s(max_wall_s)
     if built is None:

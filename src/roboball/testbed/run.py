@@ -6,8 +6,8 @@ import math
 import numpy as np
 
 from roboball.physics import shell as shell_laws
-from roboball.sim.plant import ShellParams, SimSpec
 from roboball.sim.scenarios import simulate
+from roboball.sim.spec import ShellParams, SimSpec
 from roboball.testbed.physics import load_truth, lugre_system, shell_truth_terms, true_robot
 
 ALL_EXTRAS = frozenset({"friction", "shell", "mass", "hydro"})

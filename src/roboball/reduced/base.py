@@ -1,0 +1,109 @@
+"""The common base of the diagnosis's reduced models (stand, shell, ramp), batched over
+parameter sets.
+
+The diagnosis fits every candidate effect by SIMULATION error, many parameter sets at a time
+(all candidates, all finite-difference perturbations, all releases and cross-validation folds
+in one batch).  Each model integrates its experiment's equation of motion for a batch of B
+parameter sets at once with NumPy arrays of shape (B,), so the per-step Python overhead is paid
+once for the whole batch.  The effect torques come from `roboball.physics.effects`, the same law
+functions that the Drake augmented model evaluates symbolically; :class:`ReducedModel` binds them
+to the batch.
+
+Models (coordinates measured from the baseline model's rest; robot facts from configs/robot.yaml):
+`roboball.reduced.stand.StandModel`, `roboball.reduced.shell.ShellModel`,
+`roboball.reduced.ramp.RampModel`; `roboball.reduced.models.model_for` picks one per kind.
+Time stepping and output sampling: `roboball.reduced.integrate` (`midpoint`, `hermite`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from roboball.physics import effects as fx
+from roboball.physics.mathns import NP
+
+DT = 2e-3          # s: the models' fixed step (roboball.reduced.integrate, explicit midpoint)
+
+
+@dataclass
+class BaseParam:
+    """A parameter fitted inside the baseline (never reported as missing physics)."""
+
+    name: str
+    unit: str
+    lo: float
+    hi: float
+    typical: float
+    start: float
+
+
+class ReducedModel:
+    """Common interface of the reduced models.
+
+    kind, signal (recording column), unit, dof (name used in diagnosis.json), rest (rest value
+    of the signal in the model), context (experiment constants for the effect laws),
+    base_params (fitted in the baseline), candidates (vocabulary entries that apply), and
+    `simulate(q0, P, n_steps, dt) -> (Y, Ydot)`, each (n_steps + 1, B).
+    """
+
+    kind: str = ""
+    signal: str = ""
+    unit: str = "rad"
+    dof: str = ""
+    rest: float = 0.0
+    base_params: tuple = ()
+    candidates: tuple = ()
+    release_params: tuple = ("q0", "t_shift")
+    ts_bound: float = 0.1      # s: how far the fitted release instant may move from the finder's
+    context: dict = {}
+    description: str = ""
+
+    def effect_torque(self, q, v, P: dict, active: list):
+        """Sum of the active effects' torques (NumPy laws, batch arrays)."""
+        return self.bind_effects(P, active)(q, v, np.zeros_like(np.asarray(q, dtype=float)))
+
+    def bind_effects(self, P: dict, active: list):
+        """A function add(q, v, tau) that adds the active effects' torques to `tau` in place
+        (and returns it), with the parameters bound.
+
+        Each effect is evaluated only on the rows where it is active when those rows form one
+        contiguous block (the diagnosis orders its batches by candidate, so a candidate screened
+        alone occupies one block); otherwise on the whole batch (zero magnitude -> zero torque).
+        """
+        full, part = [], []
+        for name in active:
+            eff = fx.LIBRARY[name]
+            first = np.asarray(P[f"{name}.{eff.params[0].name}"])
+            rows = np.nonzero(first != 0.0)[0]
+            sl = None
+            if rows.size and rows[-1] - rows[0] + 1 == rows.size and rows.size < first.size:
+                sl = slice(int(rows[0]), int(rows[-1]) + 1)
+            kw = {p: np.asarray(P[f"{name}.{p}"], dtype=float)[sl if sl is not None else slice(None)]
+                  for p in eff.param_names}
+            for key in eff.context:
+                kw[key] = self.context[key]
+            kw["m"] = NP
+            if sl is None:
+                full.append((eff.law, kw))
+            else:
+                part.append((eff.law, sl, kw))
+
+        def add(q, v, tau):
+            for law, kw in full:
+                tau += law(q, v, **kw)
+            for law, sl, kw in part:
+                tau[sl] += law(q[sl], v[sl], **kw)
+            return tau
+        return add
+
+
+def active_effects(P: dict, names) -> list:
+    """Effects with any non-zero magnitude in the batch (the others cost nothing)."""
+    out = []
+    for name in names:
+        eff = fx.LIBRARY[name]
+        first = f"{name}.{eff.params[0].name}"
+        if first in P and np.any(np.asarray(P[first]) != 0.0):
+            out.append(name)
+    return out

@@ -1,0 +1,64 @@
+"""The stand model of the diagnosis: one rigid pendulum about the joint axis (steer_stand, drive_stand),
+
+    I qdd = -k_g sin q - c qd + tau_effects(q, qd),
+
+with I, k_g = m g d and the rest angle from `RobotFacts.steer_stand_terms` /
+`drive_stand_terms` and the viscous coefficient c fitted inside the baseline.  Integrated by
+explicit midpoint (`roboball.reduced.integrate.midpoint`), batched over parameter sets.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from roboball.config import RobotFacts, load_robot
+from roboball.reduced.base import DT, BaseParam, ReducedModel, active_effects
+from roboball.reduced.integrate import midpoint
+
+
+class StandModel(ReducedModel):
+    """Rigid pendulum in the stand (steer or drive joint) with viscous damping."""
+
+    release_params = ("q0", "t_shift")
+
+    def __init__(self, kind: str = "steer_stand", robot: RobotFacts | None = None):
+        robot = robot or load_robot()
+        self.kind = kind
+        terms = robot.steer_stand_terms if kind == "steer_stand" else robot.drive_stand_terms
+        self.inertia = float(terms["inertia"])
+        self.k_g = float(terms["mgd"])
+        self.rest = float(terms["rest_angle"])
+        self.context = {"k_g": self.k_g}
+        self.signal = "steer_angle_rad" if kind == "steer_stand" else "drive_angle_rad"
+        self.dof = "steer" if kind == "steer_stand" else "drive"
+        self.base_params = (BaseParam("viscous_c", "N m s/rad", 0.0, 20.0, 0.1, 0.1),)
+        self.candidates = ("coulomb_friction", "stiction", "quadratic_drag", "linear_stiffness",
+                           "cubic_stiffness", "com_offset", "backlash")
+        self.description = (f"rigid pendulum about the {self.dof} joint (I = {self.inertia:.4g} kg m^2, "
+                            f"m g d = {self.k_g:.4g} N m, rest {self.rest:.4g} rad) with viscous joint damping")
+
+    def simulate(self, q0, P: dict, n_steps: int, dt: float = DT):
+        active = active_effects(P, self.candidates)
+        c = np.asarray(P["viscous_c"], dtype=float)
+        inv_i = 1.0 / self.inertia
+        k_g = self.k_g
+        extra = self.bind_effects(P, active) if active else None
+
+        cv = np.empty_like(c) if c.ndim else None
+
+        def accel(q, v):
+            tau = np.sin(q)
+            tau *= -k_g
+            if cv is not None:
+                np.multiply(c, v, out=cv)
+                tau -= cv
+            else:
+                tau -= c * v
+            if extra is not None:
+                extra(q, v, tau)
+            tau *= inv_i
+            return tau
+
+        q0 = np.asarray(q0, dtype=float) - self.rest
+        Q, V = midpoint(accel, q0, np.zeros_like(q0), n_steps, dt)
+        Q += self.rest
+        return Q, V
