@@ -13,7 +13,7 @@ figures), cli (`roboball diagnose`).  The effect library itself is roboball.phys
 """
 from __future__ import annotations
 
-from roboball.identify.friction.results import read_friction, read_joint_friction  # noqa: F401  (the CLI's and the pipeline's reader)
+from roboball.identify.friction.fitted import read_friction, read_joint_friction  # noqa: F401  (the CLI's and the pipeline's reader)
 
 
 def diagnose(recording, out_dir=None, kind: str | None = None, pressure_kpa: float | None = None,

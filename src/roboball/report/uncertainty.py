@@ -13,6 +13,7 @@ import numpy as np
 import pandas as pd
 
 from roboball.atomic import write_text_atomic
+from roboball.identify.friction.results import read_fit
 
 STAGES = ("uncertainty_report",)
 
@@ -66,21 +67,18 @@ def uncertainty_report(fits: list, comparisons: list, regression: str, pme_table
     parts.append("<h2>1. Joint friction (emcee posteriors)</h2>")
     rows, conv = [], []
     for path in fits:
-        with open(path, encoding="utf-8") as fh:
-            f = json.load(fh)
-        for name, p in f["parameters"].items():
+        f = read_fit(path)
+        for name, p in f.parameters.items():
             if name.startswith("release"):
                 continue
-            rows.append({"recording": f.get("recording", ""), "joint": f["joint"], "law": f["law"], "parameter": name,
+            rows.append({"recording": f.recording, "joint": f.joint, "law": f.law, "parameter": name,
                          "median": p["median"], "ci95_low": p["ci95_low"], "ci95_high": p["ci95_high"]})
-        c = f["convergence"]
-        ess = c.get("ess")
-        conv.append({"recording": f.get("recording", ""), "joint": f["joint"], "law": f["law"],
-                     "steps": c.get("n_steps", c.get("steps")), "max_tau_steps": c.get("tau_max_steps", c.get("max_tau")),
+        c = f.convergence
+        conv.append({"recording": f.recording, "joint": f.joint, "law": f.law,
+                     "steps": c["steps"], "max_tau_steps": c["max_tau"],
                      "chain_over_tau": c.get("chain_over_tau", float("nan")),
-                     "acceptance": c.get("acceptance_fraction_mean", c.get("acceptance_fraction")),
-                     "ess_min": min(v for v in ess.values() if v) if isinstance(ess, dict) and any(ess.values()) else c.get("ess_min", float("nan")),
-                     "converged": "yes" if c["converged"] else "NO", "rmse_rad": f["fit"]["rmse_rad"]})
+                     "acceptance": c["acceptance_fraction"], "ess_min": c["ess_min"],
+                     "converged": "yes" if c["converged"] else "NO", "rmse_rad": f.stats["rmse_rad"]})
     parts.append(_table(pd.DataFrame(rows)))
     parts.append("<h3>Convergence</h3><p>A chain counts as converged when its length is at least "
                  "<code>friction.autocorr_multiple</code> (50) integrated autocorrelation times of every parameter.</p>")

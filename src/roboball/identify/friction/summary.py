@@ -129,7 +129,7 @@ def _fit_statistics(problem: FrictionProblem, lsq: dict, flat: np.ndarray, U_map
     draws = flat[rng.choice(flat.shape[0], min(n_waic_draws, flat.shape[0]), replace=False)]
     return {"rmse_rad": float(np.sqrt(np.mean(r_map ** 2))), "rmse_lsq_rad": float(lsq["rms"]),
             "loglik_map": ll_map, "loglik_max": float(ll_max), "n_obs": int(N), "n_params": int(k_bic),
-            "loglik": float(ll_max), "bic": float(k_bic * math.log(N) - 2 * ll_max), "waic": _waic(problem, draws),
+            "bic": float(k_bic * math.log(N) - 2 * ll_max), "waic": _waic(problem, draws),
             "lsq_success": lsq["success"], "lsq_nfev": lsq["nfev"]}
 
 
@@ -140,10 +140,7 @@ def _convergence(problem: FrictionProblem, post: dict) -> dict:
     any_tau = np.any(np.isfinite(tau))
     acc = np.asarray(post["acceptance"], dtype=float)
     ess = [post["n_walkers"] * n_after / t for t in tau if np.isfinite(t) and t > 0]
-    return {"converged": post["converged"], "n_steps": post["n_steps"], "burn_in": post["burn"],
-            "steps": post["n_steps"], "burn": post["burn"],
-            "tau_max_steps": float(np.nanmax(tau)) if any_tau else None,
-            "acceptance_fraction_mean": float(acc.mean()), "chain": post["chain_path"],
+    return {"converged": post["converged"], "steps": post["n_steps"], "burn_in": post["burn"],
             "max_tau": float(np.nanmax(tau)) if any_tau else float("nan"),
             "ess_min": float(min(ess)) if ess else float("nan"),
             "acceptance_fraction": float(np.mean(post["acceptance"])),
@@ -197,7 +194,7 @@ def summarize(problem: FrictionProblem, lsq: dict, post: dict, seed: int = 0, n_
                      f"(required {post['autocorr_multiple']:g})")
     res = {"kind": problem.kind, "joint": JOINT_OF_KIND.get(problem.kind, problem.kind), "law": problem.law,
            "parameters": params, "fixed": {k_: float(v) for k_, v in problem.fixed.items()},
-           "release_angles_rad": [a["median"] for a in angles], "release_angles": angles, "release_times_s": [float(s.t_release) for s in problem.segments],
+           "release_angles": angles, "release_times_s": [float(s.t_release) for s in problem.segments],
            "fit": fit_stats, "convergence": conv,
            "integration": {"method": INTEGRATION, "dt_s": problem.dt, "step_error_rad": step_error},
            "angles_sampled": problem.angles_sampled, "chain": post["chain_path"],
