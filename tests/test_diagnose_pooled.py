@@ -14,7 +14,7 @@ import pytest
 
 from roboball.cli.main import main as cli_main
 from roboball.diagnose import diagnose
-from roboball.identify.friction.results import read_friction
+from roboball.identify.friction.fitted import read_friction
 from roboball.diagnose.data import pool, prepare, read
 from roboball.diagnose.select import Selector
 from roboball.errors import RoboballError
@@ -77,7 +77,7 @@ def test_read_friction_gives_exactly_the_five_majd_floats(tmp_path):
     without a law entry, or with a bare number for a parameter, is read like any other; keys other
     than Majd's are left out (the parameters end in diagnosis.json's baseline, which
     D.baseline_friction compares across diagnoses)."""
-    from roboball.identify.friction.results import read_friction
+    from roboball.identify.friction.fitted import read_friction
 
     def write(name, obj):
         path = tmp_path / name
@@ -101,7 +101,7 @@ def test_read_friction_gives_exactly_the_five_majd_floats(tmp_path):
 def test_read_friction_takes_the_parameters_a_fit_held_fixed(tmp_path):
     """A Majd fit with n held fixed (friction_fit's `fixed`, as the friction figures read it) is
     the law with that n; a sampled value wins over a fixed one of the same name."""
-    from roboball.identify.friction.results import read_friction
+    from roboball.identify.friction.fitted import read_friction
 
     sampled = {k: {"median": v} for k, v in FITTED["drive"].items() if k != "n"}
     path = tmp_path / "fixed_n.json"
@@ -113,7 +113,7 @@ def test_read_friction_takes_the_parameters_a_fit_held_fixed(tmp_path):
 
 def test_read_joint_friction_keeps_each_file_on_its_joint_and_leaves_out_empty_paths(tmp_path):
     """The pipeline's functions pass "" for a joint without a fit (their default)."""
-    from roboball.identify.friction.results import read_joint_friction
+    from roboball.identify.friction.fitted import read_joint_friction
 
     steer, drive = tmp_path / "steer.json", tmp_path / "drive.json"
     steer.write_text(json.dumps(FITTED["steer"]))

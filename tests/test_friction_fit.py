@@ -1,4 +1,4 @@
-"""Friction identification (roboball.identify.friction.fit): known parameters are recovered from
+"""Friction identification (roboball.identify.friction): known parameters are recovered from
 simulated stand swings, chains resume from HDF5, model comparison prefers the true law, and
 convergence is reported honestly.
 
@@ -14,7 +14,16 @@ import pytest
 from roboball.reduced import planar as R
 from roboball.config import load_robot
 from roboball.errors import ConfigError, RoboballError
-from roboball.identify.friction import fit as F
+from roboball.identify.friction.comparison import comparison
+from roboball.identify.friction.fit import fit, fit_segments
+from roboball.identify.friction.lsq import least_squares_fit
+from roboball.identify.friction.moves import IndependentT
+from roboball.identify.friction.priors import Prior, law_priors
+from roboball.identify.friction.problem import RELEASE_HALF_WIDTH_RAD, FrictionProblem
+from roboball.identify.friction.sampler import sample_posterior
+from roboball.identify.friction.segments import segments_from_arrays
+from roboball.identify.friction.summary import WEAK_IDENTIFIABILITY, summarize
+from roboball.physics import friction
 
 ROBOT = load_robot()
 MAJD_TRUE = {"f_w": 0.2, "f_c": 0.45, "sigma": 3.0, "omega_c": 0.3, "n": 2.0}
@@ -39,17 +48,17 @@ def synthetic_stand(law, true, seed, angles=(0.9, -1.0, 0.7), duration=3.5, nois
 
 
 def test_library_defaults_are_the_strict_ones():
-    sig = inspect.signature(F.fit_segments)
+    sig = inspect.signature(fit_segments)
     assert sig.parameters["autocorr_multiple"].default == 50
-    assert inspect.signature(F.fit).parameters["autocorr_multiple"].default == 50
-    assert inspect.signature(F.sample_posterior).parameters["autocorr_multiple"].default == 50
+    assert inspect.signature(fit).parameters["autocorr_multiple"].default == 50
+    assert inspect.signature(sample_posterior).parameters["autocorr_multiple"].default == 50
 
 
 @pytest.fixture(scope="module")
 def majd_fit(tmp_path_factory):
     """One Majd fit on three simulated steer-stand releases, shared by the tests that read it."""
     segs = synthetic_stand("majd", MAJD_TRUE, seed=11)
-    return F.fit_segments("steer_stand", "majd", segs, tmp_path_factory.mktemp("majd") / "majd.h5", None, seed=5,
+    return fit_segments("steer_stand", "majd", segs, tmp_path_factory.mktemp("majd") / "majd.h5", None, seed=5,
                           walkers=32, autocorr_multiple=8, max_steps=600, chunk=50, min_steps=50)
 
 
@@ -61,7 +70,7 @@ def test_majd_parameters_are_recovered_with_covering_intervals(majd_fit):
         # each inside their own 95% interval fail together one time in four by chance
         sd = (p["ci95_high"] - p["ci95_low"]) / 3.92
         assert abs(p["median"] - truth) < 3 * sd, (name, p, res["notes"])
-        assert p["unit"] == F.friction.UNITS[name]
+        assert p["unit"] == friction.UNITS[name]
     # the well-determined ones are tight; sigma and n only through their product near n = 1
     for name in ("f_w", "f_c"):
         p = res["parameters"][name]
@@ -70,11 +79,12 @@ def test_majd_parameters_are_recovered_with_covering_intervals(majd_fit):
     assert noise["ci95_low"] < np.sqrt(1e-6 + 1e-6 / 12) < noise["ci95_high"] * 1.05
     conv = res["convergence"]
     assert conv["converged"], res["notes"]
-    assert conv["chain_over_tau"] >= 8 and conv["steps"] - conv["burn"] >= 8 * conv["max_tau"]
+    assert conv["chain_over_tau"] >= 8 and conv["steps"] - conv["burn_in"] >= 8 * conv["max_tau"]
     assert 0.05 < conv["acceptance_fraction"] < 0.9 and conv["ess_min"] > 0
     assert set(samples.columns) == {*MAJD_TRUE, "noise_rad"} and len(samples) > 100
-    assert len(res["release_angles_rad"]) == 3
-    assert np.allclose(res["release_angles_rad"], [0.9, -1.0, 0.7], atol=3e-3)
+    angles = [a["median"] for a in res["release_angles"]]
+    assert len(angles) == 3
+    assert np.allclose(angles, [0.9, -1.0, 0.7], atol=3e-3)
     assert res["integration"]["parameter_shift_sd"] <= 0.2 and res["integration"]["step_error_rad"] < 0.2 * noise["median"]
     json.dumps(res)                                               # JSON-serialisable as it is
 
@@ -89,8 +99,8 @@ def test_reported_intervals_are_the_95_percent_ones_of_the_chain_after_burn_in(m
         chain = fh["mcmc"]["chain"][:]
     assert chain.shape[0] == res["convergence"]["steps"]
     flat = chain[burn:].reshape(-1, chain.shape[-1])
-    pri = F.law_priors("steer", "majd", None)
-    cols = {name: pri[name].theta(flat[:, j]) for j, name in enumerate(F.friction.PARAMS["majd"])}
+    pri = law_priors("steer", "majd", None)
+    cols = {name: pri[name].theta(flat[:, j]) for j, name in enumerate(friction.PARAMS["majd"])}
     cols["noise_rad"] = np.exp(flat[:, len(cols)])
     for name, col in cols.items():
         p = res["parameters"][name]
@@ -122,18 +132,18 @@ def test_sharply_identified_parameters_are_not_flagged_weak(majd_fit):
     res, _ = majd_fit
     for name in ("f_w", "f_c", "noise_rad"):
         p = res["parameters"][name]
-        assert p["identifiability"] < F.WEAK_IDENTIFIABILITY and p["weakly_identified"] is False, (name, p)
+        assert p["identifiability"] < WEAK_IDENTIFIABILITY and p["weakly_identified"] is False, (name, p)
     assert not any(n.startswith(("f_w:", "f_c:")) and "weakly identified" in n for n in res["notes"])
     for name, p in res["parameters"].items():
-        assert p["weakly_identified"] == (p["identifiability"] > F.WEAK_IDENTIFIABILITY), name
+        assert p["weakly_identified"] == (p["identifiability"] > WEAK_IDENTIFIABILITY), name
 
 
 def test_a_posterior_that_fills_its_prior_is_flagged_weak():
     """summarize() on a hand-made chain: c drawn from its prior (posterior = prior) is weakly
     identified; the noise level, held within a few percent, is not."""
-    segs = F.segments_from_arrays(synthetic_stand("viscous", {"c": 0.3}, seed=3, angles=(0.6, -0.5), duration=1.0))
-    problem = F.FrictionProblem("steer_stand", "viscous", segs, F.law_priors("steer", "viscous"), dt=5e-3)
-    lsq = F.least_squares_fit(problem, seed=0)
+    segs = segments_from_arrays(synthetic_stand("viscous", {"c": 0.3}, seed=3, angles=(0.6, -0.5), duration=1.0))
+    problem = FrictionProblem("steer_stand", "viscous", segs, law_priors("steer", "viscous"), dt=5e-3)
+    lsq = least_squares_fit(problem, seed=0)
     u0 = np.concatenate([lsq["x"][:problem.n_law], [np.log(lsq["sigma_hat"])], lsq["x"][problem.n_law:]])
     rng = np.random.default_rng(0)
     n_steps, n_walkers = 30, 10
@@ -143,7 +153,7 @@ def test_a_posterior_that_fills_its_prior_is_flagged_weak():
     post = {"chain": chain, "log_prob": logp, "burn": 5, "tau": np.full(problem.ndim, 2.0), "converged": True,
             "acceptance": np.full(n_walkers, 0.3), "n_steps": n_steps, "resumed_from": 0, "n_walkers": n_walkers,
             "autocorr_multiple": 5.0, "max_steps": n_steps, "chain_path": "none.h5", "adapt_schedule": []}
-    res, _ = F.summarize(problem, lsq, post, n_waic_draws=20)
+    res, _ = summarize(problem, lsq, post, n_waic_draws=20)
     c, noise = res["parameters"]["c"], res["parameters"]["noise_rad"]
     assert c["identifiability"] > 0.9 and c["weakly_identified"] is True
     assert any(n.startswith("c: weakly identified") for n in res["notes"])
@@ -158,7 +168,7 @@ def test_comparison_reports_unconverged_fits_as_such():
             r["convergence"] = {"converged": converged}
         return r
 
-    table = F.comparison([result("viscous", 10.0, False), result("majd", 5.0, True),
+    table = comparison([result("viscous", 10.0, False), result("majd", 5.0, True),
                           result("coulomb_viscous", 7.0, None)])
     conv = dict(zip(table["law"], table["converged"]))
     assert conv == {"viscous": False, "majd": True, "coulomb_viscous": False}
@@ -168,13 +178,13 @@ def test_chain_resumes_from_hdf5_and_a_seed_reproduces_it(tmp_path):
     segs = synthetic_stand("viscous", {"c": 0.3}, seed=3, angles=(0.6, -0.5), duration=2.0)
     kw = dict(seed=9, walkers=8, autocorr_multiple=1e6, chunk=20, min_steps=20)
     # uninterrupted run to 60 steps
-    full, _ = F.fit_segments("steer_stand", "viscous", segs, tmp_path / "full.h5", None, max_steps=60, **kw)
+    full, _ = fit_segments("steer_stand", "viscous", segs, tmp_path / "full.h5", None, max_steps=60, **kw)
     assert full["convergence"]["converged"] is False and full["convergence"]["steps"] == 60
     assert any("NOT CONVERGED" in n for n in full["notes"])
     # interrupted after 40 steps (a smaller cap stands in for the kill), then resumed to 60
-    part, _ = F.fit_segments("steer_stand", "viscous", segs, tmp_path / "part.h5", None, max_steps=40, **kw)
+    part, _ = fit_segments("steer_stand", "viscous", segs, tmp_path / "part.h5", None, max_steps=40, **kw)
     assert part["convergence"]["steps"] == 40
-    resumed, _ = F.fit_segments("steer_stand", "viscous", segs, tmp_path / "part.h5", None, max_steps=60, **kw)
+    resumed, _ = fit_segments("steer_stand", "viscous", segs, tmp_path / "part.h5", None, max_steps=60, **kw)
     assert resumed["convergence"]["resumed_from_steps"] == 40 and resumed["convergence"]["steps"] == 60
     with h5py.File(tmp_path / "full.h5", "r") as a, h5py.File(tmp_path / "part.h5", "r") as b:
         ca, cb = a["mcmc"]["chain"][:], b["mcmc"]["chain"][:]
@@ -184,7 +194,7 @@ def test_chain_resumes_from_hdf5_and_a_seed_reproduces_it(tmp_path):
     # a chain of different data is refused, not silently continued
     other = synthetic_stand("viscous", {"c": 0.5}, seed=4, angles=(0.6, -0.5), duration=2.0)
     with pytest.raises(RoboballError, match="different fit"):
-        F.fit_segments("steer_stand", "viscous", other, tmp_path / "part.h5", None, max_steps=80, **kw)
+        fit_segments("steer_stand", "viscous", other, tmp_path / "part.h5", None, max_steps=80, **kw)
 
 
 def test_model_comparison_prefers_the_true_law(tmp_path):
@@ -195,9 +205,9 @@ def test_model_comparison_prefers_the_true_law(tmp_path):
     kw = dict(seed=2, walkers=16, autocorr_multiple=1e6, max_steps=20, chunk=20, min_steps=20)
     fits = []
     for law in ("viscous", "coulomb_viscous"):
-        res, _ = F.fit_segments("steer_stand", law, segs, tmp_path / f"{law}.h5", None, **kw)
+        res, _ = fit_segments("steer_stand", law, segs, tmp_path / f"{law}.h5", None, **kw)
         fits.append(res)
-    table = F.comparison(fits)
+    table = comparison(fits)
     assert list(table["law"])[0] == "coulomb_viscous"
     bic = dict(zip(table["law"], table["bic"]))
     assert bic["viscous"] - bic["coulomb_viscous"] > 100
@@ -210,20 +220,20 @@ def test_model_comparison_prefers_the_true_law(tmp_path):
 
 
 def test_priors_file_and_blocks_are_validated():
-    pri = F.law_priors("steer", "majd", None)
+    pri = law_priors("steer", "majd", None)
     assert set(pri) == set(MAJD_TRUE)
     assert pri["n"].shift == 1.0 and pri["n"].low >= 1.0          # n sampled as log(n - 1)
     table1 = ROBOT.friction_table1
     for joint, law, key in (("steer", "viscous", "viscous"), ("steer", "majd", "majd_steer"),
                             ("drive", "majd", "majd_drive")):
-        for name, p in F.law_priors(joint, law, None).items():
+        for name, p in law_priors(joint, law, None).items():
             assert p.low <= table1[key][name] <= p.high               # the paper's values are inside
     with pytest.raises(ConfigError, match="no prior for"):
-        F.law_priors("steer", "majd", {"f_w": {"type": "loguniform", "low": 0.01, "high": 1.0, "start": 0.1}})
+        law_priors("steer", "majd", {"f_w": {"type": "loguniform", "low": 0.01, "high": 1.0, "start": 0.1}})
     with pytest.raises(ConfigError, match="low"):
-        F.law_priors("steer", "viscous", {"c": {"type": "loguniform", "low": 1.0, "high": 0.1, "start": 0.5}})
+        law_priors("steer", "viscous", {"c": {"type": "loguniform", "low": 1.0, "high": 0.1, "start": 0.5}})
     with pytest.raises(ConfigError, match="c"):
-        F.law_priors("steer", "viscous", {"c": {"type": "gaussian", "low": 0.1, "high": 1.0, "start": 0.5}})
+        law_priors("steer", "viscous", {"c": {"type": "gaussian", "low": 0.1, "high": 1.0, "start": 0.5}})
 
 
 def test_prior_density_on_the_sampling_coordinate():
@@ -232,7 +242,7 @@ def test_prior_density_on_the_sampling_coordinate():
     for spec, shift in (({"type": "loguniform", "low": 0.01, "high": 10.0}, 0.0),
                         ({"type": "uniform", "low": 1.0, "high": 5.0}, 1.0),
                         ({"type": "lognormal", "median": 0.3, "sigma_log": 0.7, "low": 0.05, "high": 3.0}, 0.0)):
-        p = F.Prior.from_spec("x", spec, shift=shift)
+        p = Prior.from_spec("x", spec, shift=shift)
         u = p.sample_u(rng, 200000)
         hist, edges = np.histogram(u, bins=40, density=True)
         mid = 0.5 * (edges[1:] + edges[:-1])
@@ -244,11 +254,11 @@ def test_prior_density_on_the_sampling_coordinate():
 def test_bad_segments_are_one_line_errors():
     t = np.linspace(0, 5, 400)
     with pytest.raises(RoboballError, match="only 2 samples after the release"):
-        F.segments_from_arrays([(t, np.sin(t), 4.98)])
+        segments_from_arrays([(t, np.sin(t), 4.98)])
     with pytest.raises(RoboballError, match="times but"):
-        F.segments_from_arrays([(t, np.sin(t)[:-1], 1.0)])
+        segments_from_arrays([(t, np.sin(t)[:-1], 1.0)])
     with pytest.raises(RoboballError, match="stand recording"):
-        F.fit_segments("shell_rock", "viscous", [(t, np.sin(t), 1.0)], "x.h5")
+        fit_segments("shell_rock", "viscous", [(t, np.sin(t), 1.0)], "x.h5")
 
 
 def test_release_angles_stay_inside_the_joint_limits():
@@ -256,11 +266,11 @@ def test_release_angles_stay_inside_the_joint_limits():
     joint's stop (1.0 rad, configs/robot.yaml).  The reduced model has no stop; Drake has, so a
     fitted release angle past it (the pipeline once fitted 1.158 rad) threw the Drake pendulum
     across its range in 40 ms in Fig. 7.  The release-angle support is clipped to the limits."""
-    segs = F.segments_from_arrays(synthetic_stand("viscous", {"c": 0.3}, seed=3, angles=(0.92, -1.45, 0.5), duration=1.5))
-    problem = F.FrictionProblem("steer_stand", "viscous", segs, F.law_priors("steer", "viscous"), robot=ROBOT)
+    segs = segments_from_arrays(synthetic_stand("viscous", {"c": 0.3}, seed=3, angles=(0.92, -1.45, 0.5), duration=1.5))
+    problem = FrictionProblem("steer_stand", "viscous", segs, law_priors("steer", "viscous"), robot=ROBOT)
     steer = ROBOT.joints["steer"]
     assert problem.q0_high[0] == steer["upper_rad"] and problem.q0_low[1] == steer["lower_rad"]
-    assert problem.q0_high[2] == pytest.approx(segs[2].y_release + F.RELEASE_HALF_WIDTH_RAD)
+    assert problem.q0_high[2] == pytest.approx(segs[2].y_release + RELEASE_HALF_WIDTH_RAD)
     lo, hi = problem.lsq_bounds()
     assert hi[-3] == steer["upper_rad"] and lo[-2] == steer["lower_rad"]
     c_u, noise_u = float(problem.priors[0].u_of(0.3)), float(problem.noise_prior.u_of(1e-3))
@@ -269,56 +279,59 @@ def test_release_angles_stay_inside_the_joint_limits():
     # a release recorded past the stop cannot be fitted: a one-line error naming it
     t = np.linspace(0, 3, 300)
     with pytest.raises(RoboballError, match=r"release 1 starts at 1.600 rad, outside the steer joint's limits"):
-        F.FrictionProblem("steer_stand", "viscous", F.segments_from_arrays([(t, np.cos(t), {"t_release_s": 0.0, "y_release": 1.6})]),
-                          F.law_priors("steer", "viscous"), robot=ROBOT)
+        FrictionProblem("steer_stand", "viscous", segments_from_arrays([(t, np.cos(t), {"t_release_s": 0.0, "y_release": 1.6})]),
+                          law_priors("steer", "viscous"), robot=ROBOT)
 
 
 def test_adaptive_chain_resumes_identically_across_its_stages(tmp_path):
     """Killed inside the DE stage, inside the first independence stage and in production, the
     resumed chain is the uninterrupted one step for step (the proposal of each stage is refitted
     from the stored chain, and the random state comes from the HDF5 file)."""
-    segs = F.segments_from_arrays(synthetic_stand("viscous", {"c": 0.3}, seed=3, angles=(0.6, -0.5), duration=2.0))
-    problem = F.FrictionProblem("steer_stand", "viscous", segs, F.law_priors("steer", "viscous"), dt=5e-3)
-    lsq = F.least_squares_fit(problem, seed=0)
+    segs = segments_from_arrays(synthetic_stand("viscous", {"c": 0.3}, seed=3, angles=(0.6, -0.5), duration=2.0))
+    problem = FrictionProblem("steer_stand", "viscous", segs, law_priors("steer", "viscous"), dt=5e-3)
+    lsq = least_squares_fit(problem, seed=0)
     kw = dict(seed=4, n_walkers=10, autocorr_multiple=1e6, chunk=5, min_steps=5, adapt_schedule=(10, 20))
-    full = F.sample_posterior(problem, lsq, tmp_path / "full.h5", max_steps=40, **kw)
+    full = sample_posterior(problem, lsq, tmp_path / "full.h5", max_steps=40, **kw)
     assert full["adapt_schedule"] == [10, 20] and full["burn"] >= 20     # burn-in counts from production
     for stop in (7, 15, 30):
         path = tmp_path / f"part{stop}.h5"
-        F.sample_posterior(problem, lsq, path, max_steps=stop, **kw)
-        resumed = F.sample_posterior(problem, lsq, path, max_steps=40, **kw)
+        sample_posterior(problem, lsq, path, max_steps=stop, **kw)
+        resumed = sample_posterior(problem, lsq, path, max_steps=40, **kw)
         assert resumed["resumed_from"] == stop
         assert np.array_equal(resumed["chain"], full["chain"]), stop
     # a chain stored under another adaptation schedule is refused, not continued
     with pytest.raises(RoboballError, match="different fit"):
-        F.sample_posterior(problem, lsq, tmp_path / "full.h5", max_steps=50, **{**kw, "adapt_schedule": (12, 20)})
+        sample_posterior(problem, lsq, tmp_path / "full.h5", max_steps=50, **{**kw, "adapt_schedule": (12, 20)})
 
 
-def test_a_chain_sampled_by_other_code_or_robot_facts_is_not_resumed(tmp_path, monkeypatch):
+def test_a_chain_sampled_by_other_code_or_robot_facts_is_not_resumed(tmp_path):
     """The pipeline reruns a fit when its code or the robot facts change, and the HDF5 chain
     must not carry the old posterior into it: a stored chain records the source fingerprint of
-    the log-probability and the robot facts.  Kept by a user (the default) it is refused; as the
-    pipeline's cache (stale="restart") it is sampled afresh, giving exactly a fresh run."""
+    the log-probability (handed down by the pipeline stage) and the robot facts.  Kept by a user
+    (the default) it is refused; as the pipeline's cache (stale="restart") it is sampled afresh,
+    giving exactly a fresh run."""
     import copy
 
     from roboball.config import RobotFacts
+    from roboball.pipeline.codedeps import source_fingerprint
+    from roboball.pipeline.friction import FIT_MODULE
 
-    segs = F.segments_from_arrays(synthetic_stand("viscous", {"c": 0.3}, seed=3, angles=(0.6, -0.5), duration=2.0))
-    problem = F.FrictionProblem("steer_stand", "viscous", segs, F.law_priors("steer", "viscous"), dt=5e-3)
-    lsq = F.least_squares_fit(problem, seed=0)
-    kw = dict(seed=4, n_walkers=10, autocorr_multiple=1e6, chunk=5, min_steps=5, adapt_schedule=(10, 20))
-    fresh = F.sample_posterior(problem, lsq, tmp_path / "fresh.h5", max_steps=30, **kw)
-    with monkeypatch.context() as m:                                # the chain of an older roboball
-        m.setattr(F, "_code_fingerprint", lambda: "0000000000000000")
-        F.sample_posterior(problem, lsq, tmp_path / "old.h5", max_steps=30, **kw)
+    segs = segments_from_arrays(synthetic_stand("viscous", {"c": 0.3}, seed=3, angles=(0.6, -0.5), duration=2.0))
+    problem = FrictionProblem("steer_stand", "viscous", segs, law_priors("steer", "viscous"), dt=5e-3)
+    lsq = least_squares_fit(problem, seed=0)
+    kw = dict(seed=4, n_walkers=10, autocorr_multiple=1e6, chunk=5, min_steps=5, adapt_schedule=(10, 20),
+              code=source_fingerprint(FIT_MODULE))
+    fresh = sample_posterior(problem, lsq, tmp_path / "fresh.h5", max_steps=30, **kw)
+    # the chain of an older roboball
+    sample_posterior(problem, lsq, tmp_path / "old.h5", max_steps=30, **{**kw, "code": "0000000000000000"})
     with pytest.raises(RoboballError, match="different fit \\(differs in code\\)"):
-        F.sample_posterior(problem, lsq, tmp_path / "old.h5", max_steps=30, **kw)
-    again = F.sample_posterior(problem, lsq, tmp_path / "old.h5", max_steps=30, stale="restart", **kw)
+        sample_posterior(problem, lsq, tmp_path / "old.h5", max_steps=30, **kw)
+    again = sample_posterior(problem, lsq, tmp_path / "old.h5", max_steps=30, stale="restart", **kw)
     assert again["resumed_from"] == 0 and np.array_equal(again["chain"], fresh["chain"])
     # other robot facts: another fit
     data = copy.deepcopy(ROBOT.data)
     data["links"]["pendulum"]["mass_kg"] *= 1.01
-    heavier = F.FrictionProblem("steer_stand", "viscous", segs, F.law_priors("steer", "viscous"), dt=5e-3,
+    heavier = FrictionProblem("steer_stand", "viscous", segs, law_priors("steer", "viscous"), dt=5e-3,
                                 robot=RobotFacts(data, source="test"))
     assert heavier.fingerprint() != problem.fingerprint()
 
@@ -333,7 +346,7 @@ def test_independence_proposal_samples_a_known_gaussian_exactly():
     def log_prob(x):
         return -0.5 * np.sum(((x - mu) / s) ** 2, axis=1)
 
-    prop = F.IndependentT(mu + 0.5 * s, np.diag((1.5 * s) ** 2), df=6.0, scale=1.0)
+    prop = IndependentT(mu + 0.5 * s, np.diag((1.5 * s) ** 2), df=6.0, scale=1.0)
     sampler = emcee.EnsembleSampler(16, 3, log_prob, vectorize=True, moves=[(emcee.moves.MHMove(prop), 1.0)])
     sampler._random = np.random.RandomState(7)
     sampler.run_mcmc(mu + 0.1 * s * np.random.default_rng(1).standard_normal((16, 3)), 3000, progress=False)
@@ -341,3 +354,20 @@ def test_independence_proposal_samples_a_known_gaussian_exactly():
     assert np.all(np.abs(x.mean(axis=0) - mu) < 0.05 * s)                       # within 5% of each sd
     assert np.allclose(x.std(axis=0), s, rtol=0.05)
     assert 0.2 < np.mean(sampler.acceptance_fraction) < 0.9
+
+
+def test_the_identification_imports_nothing_from_the_pipeline():
+    """identify/ is below pipeline/: the pipeline stage hands the code fingerprint down
+    (roboball.pipeline.friction), the fit never reaches up for it."""
+    import ast
+    from pathlib import Path
+
+    import roboball.identify
+
+    offenders = []
+    for path in Path(roboball.identify.__file__).parent.rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            names = [a.name for a in node.names] if isinstance(node, ast.Import) else \
+                [node.module or ""] if isinstance(node, ast.ImportFrom) else []
+            offenders += [f"{path.name}:{node.lineno}" for n in names if n.startswith("roboball.pipeline")]
+    assert not offenders, offenders

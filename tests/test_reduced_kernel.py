@@ -11,7 +11,7 @@ import pytest
 from roboball.reduced import planar as R
 from roboball.reduced import kernel as K
 from roboball.config import load_robot
-from roboball.identify.friction.fit import law_priors
+from roboball.identify.friction.priors import law_priors
 from roboball.physics import friction
 from roboball.physics.mathns import scalar
 

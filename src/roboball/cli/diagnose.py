@@ -41,7 +41,7 @@ def _pressure(text: str) -> float:
 def cmd_diagnose(args) -> int:
     from roboball.diagnose import diagnose
     from roboball.diagnose.scored import Settings
-    from roboball.identify.friction.results import read_joint_friction
+    from roboball.identify.friction.fitted import read_joint_friction
 
     t0 = time.perf_counter()
     for path in args.recording:

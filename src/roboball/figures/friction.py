@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 
 from roboball.atomic import write_csv_atomic, write_text_atomic
+from roboball.identify.friction.results import FrictionFit, read_fit
 from roboball.physics import friction
 from roboball.figures.style import plt, save
 
@@ -18,48 +19,28 @@ LAW_COLOURS = {"viscous": "#1f77b4", "coulomb_viscous": "#ff7f0e", "majd": "#2ca
 LAW_LABELS = {"viscous": "viscous", "coulomb_viscous": "Coulomb + viscous (eq. 2)", "majd": "Majd (eq. 3)"}
 
 
-def load_fit(path) -> dict:
-    with open(path, encoding="utf-8") as fh:
-        return json.load(fh)
-
-
-def medians(fit: dict) -> dict:
-    """Posterior medians of the law's own parameters."""
-    return {k: v["median"] for k, v in fit["parameters"].items() if k in friction.PARAMS[fit["law"]]}
-
-
-def release_angles(fit: dict) -> list | None:
-    """Fitted release angles, in release order (entries named like release_1_rad), if any."""
-    if "release_angles_rad" in fit:
-        return fit["release_angles_rad"]
-    keys = sorted((k for k in fit["parameters"] if k.startswith("release")), key=lambda k: int("".join(c for c in k if c.isdigit()) or 0))
-    return [fit["parameters"][k]["median"] for k in keys] or None
-
-
-def samples(fit: dict, n: int | None = None, seed: int = 0) -> pd.DataFrame:
-    s = pd.read_csv(fit["samples_csv"])
-    if n is not None and len(s) > n:
-        s = s.sample(n, random_state=seed)
-    return s
+def _law_medians(f: FrictionFit) -> dict:
+    """The fitted law's posterior medians (without the noise level)."""
+    return f.medians(friction.PARAMS[f.law])
 
 
 def fig5(fits: list, out_png: str) -> None:
     """Torque vs joint velocity of every fitted law, median and 95% posterior band."""
-    fits = [load_fit(f) for f in fits]
-    joints = sorted({f["joint"] for f in fits}, key=lambda j: j != "steer")
+    fits = [read_fit(f) for f in fits]
+    joints = sorted({f.joint for f in fits}, key=lambda j: j != "steer")
     fig, axes = plt.subplots(1, len(joints), figsize=(6 * len(joints), 4.5), squeeze=False)
     for ax, joint in zip(axes[0], joints):
         vmax = 2.0 if joint == "steer" else 4.0
         v = np.linspace(-vmax, vmax, 801)
-        for f in [f for f in fits if f["joint"] == joint]:
-            law = f["law"]
-            draws = samples(f, 300)
-            taus = np.array([friction.torque(law, v, {**f.get("fixed", {}), **row._asdict()}) for row in
+        for f in [f for f in fits if f.joint == joint]:
+            law = f.law
+            draws = f.samples(300)
+            taus = np.array([friction.torque(law, v, {**f.fixed, **row._asdict()}) for row in
                              draws[[c for c in draws.columns if c in friction.PARAMS[law]]].itertuples(index=False)])
             lo, hi = np.percentile(taus, [2.5, 97.5], axis=0)
             col = LAW_COLOURS[law]
             ax.fill_between(v, lo, hi, color=col, alpha=0.25)
-            ax.plot(v, friction.torque(law, v, {**f.get("fixed", {}), **medians(f)}), color=col, lw=1.8,
+            ax.plot(v, friction.torque(law, v, {**f.fixed, **_law_medians(f)}), color=col, lw=1.8,
                     label=f"{LAW_LABELS[law]} (median, 95% band)")
         ax.axhline(0, color="k", lw=0.6)
         ax.axvline(0, color="k", lw=0.6)
@@ -91,7 +72,7 @@ def fig_stand_fits(recording: str, releases: str, fits: list, out_png: str, titl
     rec = read_recording(recording)
     with open(releases, encoding="utf-8") as fh:
         rels = json.load(fh)["releases"]
-    fits = [load_fit(f) for f in fits]
+    fits = [read_fit(f) for f in fits]
     sig = rec.main_signal()
     fig, axes = plt.subplots(len(rels), 1, figsize=(9, 2.6 * len(rels)), squeeze=False)
     for i, (ax, r) in enumerate(zip(axes[:, 0], rels)):
@@ -99,13 +80,13 @@ def fig_stand_fits(recording: str, releases: str, fits: list, out_png: str, titl
         m = (t >= r["t_release_s"] - 0.3) & (t <= r["t_end_s"])
         ax.plot(t[m] - r["t_release_s"], y[m], "k.", ms=2.5, label="recording")
         for f in fits:
-            angles = release_angles(f)
+            angles = f.release_angle_medians()
             q0 = angles[i] if angles and i < len(angles) else r["y_release"]
-            ts, ys = _drake_swing(rec.kind, f["law"], {**f.get("fixed", {}), **medians(f)}, q0,
+            ts, ys = _drake_swing(rec.kind, f.law, {**f.fixed, **_law_medians(f)}, q0,
                                   r["t_end_s"] - r["t_release_s"])
-            unconverged = not f.get("convergence", {}).get("converged", True)
-            ax.plot(ts, ys, color=LAW_COLOURS[f["law"]], lw=1.4,
-                    label=f"Drake, {LAW_LABELS[f['law']]} (rmse {f['fit']['rmse_rad'] * 1e3:.0f} mrad"
+            unconverged = not f.convergence.get("converged", True)
+            ax.plot(ts, ys, color=LAW_COLOURS[f.law], lw=1.4,
+                    label=f"Drake, {LAW_LABELS[f.law]} (rmse {f.stats['rmse_rad'] * 1e3:.0f} mrad"
                           + ("; chain not converged)" if unconverged else ")"))
         ax.set_ylabel(f"{sig[:-4].replace('_', ' ')} (rad)")
         ax.set_title(f"release {i + 1} at {r['t_release_s']:.2f} s", fontsize=9)
@@ -124,18 +105,18 @@ def table1(fits: list, out_csv: str, out_md: str, comparison_csv: str = "", robo
     robot = load_robot(robot_yaml or None)
     rows, chains = [], []
     for path in fits:
-        f = load_fit(path)
-        paper = friction.table1_params(robot, f["law"], f["joint"])
-        for name, p in f["parameters"].items():
+        f = read_fit(path)
+        paper = friction.table1_params(robot, f.law, f.joint)
+        for name, p in f.parameters.items():
             if name.startswith("release"):
                 continue
-            rows.append({"joint": f["joint"], "law": f["law"], "parameter": name, "median": p["median"],
+            rows.append({"joint": f.joint, "law": f.law, "parameter": name, "median": p["median"],
                          "map": p.get("map", float("nan")), "ci95_low": p["ci95_low"], "ci95_high": p["ci95_high"],
                          "unit": "rad" if name == "noise_rad" else friction.UNITS.get(name, ""),
-                         "paper_table1": paper.get(name, float("nan")), "source": f.get("recording", "")})
-        c = f.get("convergence") or {}
+                         "paper_table1": paper.get(name, float("nan")), "source": f.recording})
+        c = f.convergence
         if c:
-            chains.append(f"| {f.get('recording', '')} | {f['joint']} | {f['law']} | {c['steps']} | {c['burn_in']} | "
+            chains.append(f"| {f.recording} | {f.joint} | {f.law} | {c['steps']} | {c['burn_in']} | "
                           f"{c['max_tau']:.0f} | {c['chain_over_tau']:.1f} (needs {c['autocorr_multiple']:g}) | "
                           f"{c['ess_min']:.0f} | "
                           f"{'yes' if c['converged'] else '**no**'} |")
@@ -187,8 +168,8 @@ def corner_plot(fit: str, out_png: str) -> None:
     """Corner plot of one posterior (law parameters and the noise level)."""
     import corner
 
-    f = load_fit(fit)
-    s = samples(f, 20000)
+    f = read_fit(fit)
+    s = f.samples(20000)
     labels = [f"{c} ({'rad' if c == 'noise_rad' else friction.UNITS.get(c, '-')})" for c in s.columns]
     k = s.shape[1]
     # corner lays its K x K grid out with subplots_adjust, which a layout engine (the style's
@@ -199,6 +180,6 @@ def corner_plot(fit: str, out_png: str) -> None:
     for ax in fig.axes:
         ax.tick_params(labelsize=7)
     fig.subplots_adjust(top=1.0 - 1.2 / (2.0 * k + 1.7), left=0.9 / (2.0 * k + 1.4), bottom=0.9 / (2.0 * k + 1.7))
-    fig.suptitle(f"Posterior: {f['law'].replace('_', '+')} friction, {f['joint']} joint ({f.get('recording', '')})\n"
+    fig.suptitle(f"Posterior: {f.law.replace('_', '+')} friction, {f.joint} joint ({f.recording})\n"
                  "dashed: 2.5, 50 and 97.5% quantiles", fontsize=9, y=0.995)
     save(fig, out_png)

@@ -86,7 +86,7 @@ def deflating_ramp(regression: str, out_png: str, out_csv: str = "", schedule_cs
     pressure and while deflating (the schedule CSV, else the time/pressure lists, else linearly
     from p_start to p_end over the run)."""
     from roboball.sim.schedule import PressureSchedule, ShellLaws
-    from roboball.identify.friction.results import read_joint_friction
+    from roboball.identify.friction.fitted import read_joint_friction
 
     laws = ShellLaws.from_regression_csv(regression)
     if schedule_csv:

@@ -32,7 +32,7 @@ def diagnose_recording(recording: list, out_dir: str, friction_steer: str = "", 
     `out_dir`.  With fitted friction (the pipeline's Majd fits) the ramp baseline is the paper's
     point model as the pipeline calibrates it, instead of the contract's Table I friction."""
     from roboball.diagnose import diagnose
-    from roboball.identify.friction.results import read_joint_friction
+    from roboball.identify.friction.fitted import read_joint_friction
 
     diagnose(recording, out_dir=out_dir, friction=read_joint_friction(friction_steer, friction_drive) or None)
 

@@ -3,9 +3,12 @@ from __future__ import annotations
 
 import json
 
-from roboball.atomic import write_csv_atomic, write_json_atomic
+from roboball.atomic import write_csv_atomic
 
 STAGES = ("friction_fit", "friction_comparison")
+# The module whose import closure computes a chain's log-probability: its source fingerprint is
+# stored with the chain, so a chain sampled by other code is not resumed.
+FIT_MODULE = "roboball.identify.friction.fit"
 
 
 def friction_fit(recording: str, releases: str, joint: str, law: str, prior_json: str, chain: str,
@@ -16,16 +19,17 @@ def friction_fit(recording: str, releases: str, joint: str, law: str, prior_json
     robot facts, settings or the code changed, which is why Snakemake reruns the rule) is
     sampled afresh."""
     from roboball.identify.friction.fit import fit
+    from roboball.identify.friction.results import write_fit
+    from roboball.pipeline.codedeps import source_fingerprint
 
     res, samples = fit(recording, releases, joint, law, json.loads(prior_json), chain, walkers=walkers,
-                       autocorr_multiple=autocorr_multiple, max_steps=max_steps, seed=seed, stale="restart")
-    write_csv_atomic(samples, out_samples)
-    res["samples_csv"] = out_samples
-    write_json_atomic(out_json, res)
+                       autocorr_multiple=autocorr_multiple, max_steps=max_steps, seed=seed, stale="restart",
+                       code=source_fingerprint(FIT_MODULE))
+    write_fit(out_json, out_samples, res, samples)
 
 
 def friction_comparison(fits: list, out_csv: str) -> None:
     """Residual, log-likelihood and BIC of each law fitted to the same recording."""
-    from roboball.identify.friction.fit import comparison
+    from roboball.identify.friction.comparison import comparison
 
     write_csv_atomic(comparison(fits), out_csv)

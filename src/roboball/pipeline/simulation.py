@@ -105,7 +105,7 @@ def ramp_sim(recording: str, releases: str, regression: str, contact: str, out_c
     tt, w_e, pipe0 = ramp_window(rec, releases)
     p = rec.pressure_kpa
     zeta, omega = shell_at(regression, p)
-    from roboball.identify.friction.results import read_joint_friction
+    from roboball.identify.friction.fitted import read_joint_friction
 
     params = read_joint_friction(friction_steer, friction_drive)
     shell = ShellParams(zeta=zeta, omega_n=omega, modulus_scale=modulus_scale, dissipation_scale=dissipation_scale,

@@ -16,12 +16,12 @@ stops with one line saying what to run.
 """
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
 from roboball.cli.main import register_command
 from roboball.errors import RoboballError
+from roboball.identify.friction.results import try_read_fit
 
 PRESSURES_KPA = (6.9, 10.3, 13.8, 17.2, 20.7)
 
@@ -40,37 +40,13 @@ def _md_table(header: list, rows: list) -> list:
     return out
 
 
-# ---- readers (one-line errors naming the file and the field) ----------------------------------
-def read_fit(path: Path) -> dict | None:
-    """A friction fit JSON (keys joint, law, parameters{name: median, ci95_low, ci95_high});
-    None for JSON files under results/friction that are not fits."""
-    try:
-        with open(path, encoding="utf-8") as fh:
-            d = json.load(fh)
-    except json.JSONDecodeError as exc:
-        raise RoboballError(f"{path}: not valid JSON (line {exc.lineno}: {exc.msg})")
-    if not isinstance(d, dict) or "parameters" not in d:
-        return None
-    for key in ("joint", "law"):
-        if key not in d:
-            raise RoboballError(f"{path}: friction fit without field '{key}'")
-    params = d["parameters"]
-    if not isinstance(params, dict) or not params:
-        raise RoboballError(f"{path}: field 'parameters' must map parameter names to their posterior summary")
-    for name, p in params.items():
-        for key in ("median", "ci95_low", "ci95_high"):
-            if not isinstance(p, dict) or key not in p:
-                raise RoboballError(f"{path}: parameter '{name}' has no '{key}'")
-    return d
-
-
 def _friction(results: Path, missing: list) -> list:
     root = results / "friction"
     fits = []
     for path in sorted(root.rglob("*.json")) if root.is_dir() else []:
-        d = read_fit(path)
-        if d is not None:
-            fits.append((path, d))
+        fit = try_read_fit(path)           # None for the JSON files there that are not fits
+        if fit is not None:
+            fits.append((path, fit))
     if not fits:
         missing.append(f"{root}/**/*.json (friction fits)")
         return []
@@ -78,19 +54,18 @@ def _friction(results: Path, missing: list) -> list:
              "Posterior median and 95% interval of each parameter (torques in N m, rates in rad/s).", ""]
     rows = []
     for path, d in fits:
-        conv = d.get("convergence") or {}
-        ok = {True: "yes", False: "NO"}.get(conv.get("converged"), "n/a")
-        for name, p in d["parameters"].items():
-            rows.append([d.get("recording") or path.parent.name, d["joint"], d["law"], name, _fmt(p["median"]),
+        ok = {True: "yes", False: "NO"}.get(d.convergence.get("converged"), "n/a")
+        for name, p in d.parameters.items():
+            rows.append([d.recording or path.parent.name, d.joint, d.law, name, _fmt(p["median"]),
                          f"[{_fmt(p['ci95_low'])}, {_fmt(p['ci95_high'])}]", ok])
     lines += _md_table(["recording", "joint", "law", "parameter", "median", "95% interval", "converged"], rows)
     conv_rows = []
     for path, d in fits:
-        c = d.get("convergence")
+        c = d.convergence
         if c:
             tau = c.get("max_tau", float("nan"))
             steps = c.get("steps", float("nan"))
-            conv_rows.append([d.get("recording") or path.parent.name, d["joint"], d["law"], _fmt(steps, ".0f"),
+            conv_rows.append([d.recording or path.parent.name, d.joint, d.law, _fmt(steps, ".0f"),
                               _fmt(tau, ".1f"), _fmt(steps / tau if tau else float("nan"), ".0f"),
                               _fmt(c.get("acceptance_fraction"), ".2f"), _fmt(c.get("ess_min"), ".0f")])
     if conv_rows:

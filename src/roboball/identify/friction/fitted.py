@@ -1,0 +1,38 @@
+"""The fitted Majd friction a simulation runs with: the point estimate of a fit file.
+
+One reader for every consumer of the fits (the ramp descents, the deflating ramp, the
+diagnosis's calibrated ramp baseline), so that a malformed file fails the same way, in one line,
+everywhere.  The file format is :mod:`roboball.identify.friction.results`'s."""
+from __future__ import annotations
+
+from pathlib import Path
+
+from roboball.errors import RoboballError
+from roboball.identify.friction.results import is_fit, point_estimate, read_json
+from roboball.physics import friction as friction_laws
+
+
+def read_friction(path) -> dict:
+    """Majd parameters from a friction fit (roboball's fit JSON: posterior medians, and the values
+    of any parameters the fit held fixed) or a plain JSON object {f_w, f_c, sigma, omega_c, n};
+    a one-line error names the file and what is wrong."""
+    path = Path(path)
+    d = read_json(path)
+    if is_fit(d) and isinstance(d["parameters"], dict):
+        if d.get("law") not in (None, "majd"):
+            raise RoboballError(f"{path}: a fit of the {d.get('law')} law, not Majd's")
+        d = point_estimate(d)
+    if not isinstance(d, dict):
+        raise RoboballError(f"{path}: expected a JSON object of Majd parameters")
+    out = {}
+    for k in friction_laws.PARAMS["majd"]:
+        v = d.get(k)
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or v != v:
+            raise RoboballError(f"{path}: Majd parameter '{k}' is {'missing' if v is None else repr(v)}, not a number")
+        out[k] = float(v)
+    return out
+
+
+def read_joint_friction(steer=None, drive=None) -> dict:
+    """{joint: Majd parameters} for the joints whose fit file is given (empty or None: left out)."""
+    return {joint: read_friction(path) for joint, path in (("steer", steer), ("drive", drive)) if path}
