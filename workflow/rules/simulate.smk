@@ -2,7 +2,7 @@
 # with the hydroelastic sensitivity sweep (section III-D, Fig. 11); ramp descents of every contact
 # model for every recorded run, scored by PME (eq. 12), with the friction posteriors propagated
 # through the simulations; the interactive replays; and, beyond the paper (issue 9, Fig. S1), a
-# ramp descent while the shell deflates (roboball.sim.pressure; config section deflating_ramp).
+# ramp descent while the shell deflates (roboball.sim.schedule_run; config section deflating_ramp).
 
 
 rule shell_sim:

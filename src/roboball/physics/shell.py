@@ -14,7 +14,7 @@ patch area is A = f_n / p (membrane limit: the skin's bending stiffness is negli
 undeformed sphere that has a flat of radius a = sqrt(A / pi) intersects the ground in a cap of
 depth delta = R - sqrt(R^2 - a^2) and volume V = pi delta^2 (3 R - delta) / 3.  At 13.8 kPa for
 the 41.3 kg robot this gives V = 2.33e-4 m^3 and a modulus of 1.74e6 Pa, near the authors' default
-of 1.8e6 Pa (tests/test_shell_laws.py).
+of 1.8e6 Pa (tests/physics/test_shell_laws.py).
 """
 from __future__ import annotations
 

@@ -28,8 +28,8 @@ ROBOT_FACTS_READER = "roboball.config"
 STAGE_RUNNER = "roboball.cli.stage"
 # The pinned environment (drake, numpy, emcee, ...): an upgrade can change any number.
 LOCK_FILE = "requirements.lock"
-# Bookkeeping that computes fingerprints and changes no result: importing it (the friction fit
-# does, to fingerprint its MCMC chains) makes no module depend on it.
+# Bookkeeping that computes fingerprints and changes no result: importing it (the friction-
+# fit stage does, to fingerprint its MCMC chains) makes no module depend on it.
 BOOKKEEPING = frozenset({"roboball.pipeline.codedeps"})
 
 

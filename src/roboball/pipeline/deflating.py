@@ -2,7 +2,7 @@
 
 The paper (section V) cannot change pressure during a run.  This stage runs the ramp descent
 three times per contact model: at the schedule's start pressure, at its end pressure, and
-following the schedule (roboball.sim.pressure), and draws the drive rate of each with the
+following the schedule (roboball.sim.schedule_run), and draws the drive rate of each with the
 pressure above it.  The injected shell follows p(t) continuously through its pressure input; the
 hydroelastic shell gets new contact properties every `hydro_update_s` (Drake allows no more).
 """

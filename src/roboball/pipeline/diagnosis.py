@@ -6,7 +6,7 @@ contact, the Majd friction fitted on the stand logs on both joints: the contract
 of ../shared/specs/diagnosis.md with the fitted friction in place of Table I) plus the effects the
 diagnosis found, evaluated as a Drake force element (roboball.diagnose.drake.effect_term).  It is
 scored out of sample: the effects and their parameters for one run come from the pooled
-diagnosis of the OTHER runs at the same pressure (workflow/rules/ramp.smk), whose held-out test
+diagnosis of the OTHER runs at the same pressure (workflow/rules/diagnose.smk), whose held-out test
 leaves one whole run out.  Its PME (eq. 12) is computed on the same samples, from the same start, as
 the paper's models (roboball.pipeline.simulation.ramp_window).
 """

@@ -1,6 +1,6 @@
 """The campaign plan the workflow expands: which recordings there are, how the ramp runs group by
 pressure, which hydroelastic sweep cases and replays run.  The Snakefile's rules only name files;
-every choice of what to run is made here, where it is tested (tests/test_plan.py).
+every choice of what to run is made here, where it is tested (tests/pipeline/test_plan.py).
 
     from roboball.pipeline.plan import Campaign
     camp = Campaign.from_config(config)          # the workflow's config.yaml, already validated

@@ -15,7 +15,7 @@ change every number downstream, so both stay:
 
 RK4 with an implicit step for stiff stiction
 --------------------------------------------
-Measured against a 10 us reference on 8 s, 1.2 rad steer swings (see ``tests/test_reduced.py``
+Measured against a 10 us reference on 8 s, 1.2 rad steer swings (see ``tests/reduced/test_planar.py``
 and :func:`roboball.reduced.planar.step_error`), the candidates compare as follows:
 
 * semi-implicit (symplectic) Euler is first order in the output: ~dt*omega/2 relative

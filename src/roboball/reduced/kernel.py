@@ -15,7 +15,7 @@ Here each batch row runs the identical algorithm in machine code (rows in parall
   re-implements a law.
 
 Scope: friction law only (no ``extra_torque`` callable and no work record; those runs stay on the
-NumPy loop).  ``tests/test_reduced_kernel.py`` checks that both loops give the same trajectories
+NumPy loop).  ``tests/reduced/test_kernel.py`` checks that both loops give the same trajectories
 (within 1e-9 rad; they differ only by the last bits of exp/sin between libm and NumPy).
 Results do not depend on the number of threads: rows are independent.
 """

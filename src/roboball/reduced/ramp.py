@@ -1,7 +1,7 @@
 """Reduced planar model of the ramp descent, vectorised over a batch of parameter sets.
 
 The diagnosis searches effects on the ramp with this model and shows the result in Drake's
-`ramp` scenario (point contact, Majd friction on both joints); `tests/test_diagnose_models.py`
+`ramp` scenario (point contact, Majd friction on both joints); `tests/reduced/test_reduced_vs_drake.py`
 checks that the two agree.
 
 Model: two rigid bodies in the vertical plane of the descent.
@@ -32,7 +32,7 @@ slip velocity s' - R theta' changes sign.  Left out: the steer joint and the rol
 motion.  In Drake the pendulum swings sideways on the steer joint during a descent, by up to
 0.07 rad with Table I friction and 0.11 rad with the weaker steer friction fitted on the stand
 logs; the planar model then runs up to 0.2% (Table I) or 0.6% (fitted) of the top rate faster,
-+0.02% or +0.09% by eq. 12 (tests/test_diagnose_models.py).
++0.02% or +0.09% by eq. 12 (tests/reduced/test_reduced_vs_drake.py).
 
 Integration: explicit midpoint (RK2) with a fixed step (2 ms), the contact mode frozen within
 a step.  The loop is the model's own, not roboball.reduced.integrate.midpoint: it carries five

@@ -8,7 +8,7 @@ same scenario as the pipeline's ramp descents: the full robot on the 16 deg ramp
 are given explicitly (`ShellParams`), so the study does not depend on fitted results.
 
 Used by `benchmarks/sim_speed.py` (which prints the study next to the real-time factors) and by
-`tests/test_convergence.py` (which holds the pipeline's step to 1% PME).
+`tests/sim/test_convergence.py` (which holds the pipeline's step to 1% PME).
 """
 from __future__ import annotations
 

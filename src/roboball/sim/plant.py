@@ -29,7 +29,7 @@ Discrete contact approximations, chosen on purpose (`approximation_for`):
   Drake has deprecated TAMSI (removal announced for after 2026-09-01; drake 1.51.1, the last
   release for Python 3.11, still has it): where it is gone, hydroelastic runs fall back to
   `lagged` with a warning, and the results move by at most 0.4%.
-  `tests/test_contact_approximation.py` checks the choices, the Hunt-Crossley dependence under
+  `tests/sim/test_contact_approximation.py` checks the choices, the Hunt-Crossley dependence under
   both, the equivalence and the fallback.  The virtual test bed keeps `lagged` everywhere.
 """
 from __future__ import annotations
@@ -233,7 +233,7 @@ def _plant_config(spec: SimSpec) -> MultibodyPlantConfig:
         # sampled ports (Drake's default) the plant computes and stores its contact results,
         # reaction forces and every other output port each step although only the state port is
         # read here.  With the models' stateless force systems trajectories are bit-identical
-        # (tests/test_drake_physics.py); a ramp step costs about 2.4x less (benchmarks/sim_speed.py).
+        # (tests/sim/test_drake_physics.py); a ramp step costs about 2.4x less (benchmarks/sim_speed.py).
         use_sampled_output_ports=spec.sampled_output_ports,
         discrete_contact_approximation=spec.approximation or approximation_for(spec.contact),
         contact_model="hydroelastic_with_fallback" if spec.contact == "hydroelastic" else "point",

@@ -5,7 +5,7 @@ hydroelastic mesh, full 3-D) and holds physics the paper's models leave out: LuG
 joint friction with true stiction, amplitude-dependent shell dissipation, pressure-dependent
 shell stiffness, rolling resistance, and mass properties that differ from the URDF.  Its truth
 lives in `truth.yaml` beside this file.  Nothing outside this package may import it or read
-that file (tests/test_isolation.py): the analysis sees only the recordings.
+that file (tests/testbed/test_isolation.py): the analysis sees only the recordings.
 """
 from pathlib import Path
 
