@@ -57,6 +57,7 @@ from roboball.ingest.recording import Recording, normalise
 from roboball.ingest.releases.find import require_releases
 from roboball.ingest.releases.record import Release
 from roboball.ingest.releases.signal import prepare_signal, zigzag
+from roboball.kinds import NOT_YET, not_yet_message
 
 PRE_S = 0.05
 RAMP_SMOOTH_S = 0.1
@@ -330,7 +331,10 @@ def smooth_after(t: np.ndarray, y: np.ndarray, t0: float, half_width: float) -> 
 
 
 def prepare(rec: Recording) -> Prepared:
-    """Fit windows of every release in `rec` (normalised first)."""
+    """Fit windows of every release in `rec` (normalised first).  A kind the diagnosis has no
+    baseline for yet (roboball.kinds.NOT_YET) is a one-line RoboballError naming the file."""
+    if rec.kind in NOT_YET["diagnosis"]:
+        raise RoboballError(f"{rec.label}: {not_yet_message(rec.kind, 'diagnosis')}")
     rec = normalise(rec)
     kind = rec.kind
     signal = rec.main_signal()

@@ -47,7 +47,7 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import Adder, LogVectorOutput
 
 from roboball.config import RobotFacts, load_robot
-from roboball.kinds import SIMULATED
+from roboball.kinds import NOT_YET, SIMULATED, not_yet_message
 from roboball.physics import friction as friction_laws
 from roboball.physics import shell as shell_laws
 from roboball.sim.urdf import ShellTags, make_urdf
@@ -265,6 +265,8 @@ def _layout(plant) -> StateLayout:
 
 def build(spec: SimSpec, sample_period: float | None = None, meshcat=None) -> Built:
     """Build the diagram for `spec`.  `sample_period` adds a state logger at that period."""
+    if spec.kind in NOT_YET["simulation scenarios"]:
+        raise ValueError(not_yet_message(spec.kind, "simulation scenarios"))
     if spec.kind not in KINDS:
         raise ValueError(f"unknown kind '{spec.kind}' (choose from {', '.join(KINDS)})")
     if spec.contact not in CONTACTS:
