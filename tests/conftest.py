@@ -1,9 +1,24 @@
 import os
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 os.environ.setdefault("MPLBACKEND", "Agg")
+
+# The authors' real logs sit in ../shared beside the repository (in CI as here), never inside it.
+REAL_DATA = Path(os.environ.get("ROBOBALL_REAL_DATA",
+                                Path(__file__).resolve().parents[2] / "shared" / "data" / "roboball_real"))
+COUPLED = ("steer_coupled_20250429_165825.csv", "steer_coupled_20250429_165853.csv",
+           "steer_coupled_20250429_165914.csv")
+
+
+def real_file(name: str) -> Path:
+    """Path of one real log in REAL_DATA; skips the test (saying where it looked) if it is missing."""
+    path = REAL_DATA / name
+    if not path.exists():
+        pytest.skip(f"real log {name} not found in {REAL_DATA}")
+    return path
 
 
 def recording_error(read, path, **flags) -> str:

@@ -38,6 +38,11 @@ release.  Only the largest half swing is given up, so the start moves there only
 least `MIN_TURNS_AFTER` further turning points follow within the window (a body stopped by
 strong dry friction after one overshoot keeps its release start).
 
+A log trimmed at (or a few samples after) the let-go has its release at its first sample (the
+release finder's), and its window is cut like any other: a trimmed log of the real shell rocking
+gets the very window of the whole log.  When the window starts at that release, the fitted release
+instant (up to the model's ts_bound earlier) stands for the few samples the body had already moved.
+
 The noise level (sensor noise and quantisation) comes from the release finder's estimate.
 Undamped records (the shell baseline has no dissipation at all) have holds but no decaying
 oscillation, which roboball.ingest.releases does not accept; `_hold_releases` then takes the ends of
