@@ -79,6 +79,16 @@ def one_error_line(r: subprocess.CompletedProcess) -> str:
     assert len(lines) == 1, r.stderr
     assert lines[0].startswith("roboball: error: "), lines[0]
     return lines[0][len("roboball: error: "):]
+COUPLED = ("steer_coupled_20250429_165825.csv", "steer_coupled_20250429_165853.csv",
+           "steer_coupled_20250429_165914.csv")
+
+
+def real_file(name: str) -> Path:
+    """Path of one real log in REAL_DATA; skips the test (saying where it looked) if it is missing."""
+    path = REAL_DATA / name
+    if not path.exists():
+        pytest.skip(f"real log {name} not found in {REAL_DATA}")
+    return path
 
 
 def recording_error(read, path, **flags) -> str:

@@ -2,6 +2,7 @@
 synthetic native files."""
 from __future__ import annotations
 
+import json
 import os
 from pathlib import Path
 
@@ -9,7 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from conftest import recording_error
+from conftest import COUPLED, real_file, recording_error
 from roboball.ingest.importers import detect_format, import_native, read_any
 from roboball.ingest.errors import RecordingError
 from roboball.ingest.recording import write_recording
@@ -213,3 +214,101 @@ def test_epoch_nanoseconds_written_as_floats_are_a_one_line_error(tmp_path):
     msg = _message(path)
     assert "line 3, column timestamp" in msg and "'1.76520842667e18' is not an integer number of nanoseconds" in msg
     assert "\n" not in msg
+
+
+# --------------------------------------------------------------------------------------
+# the coupled steer-direction test and the steer-stand trial (recordings.md, native formats)
+# --------------------------------------------------------------------------------------
+COUPLED_HEADER = "timestamp,ball_roll.position,roll_joint.position\n"
+TRIAL_HEADER = "timestamp,roll_joint.position,roll_joint.velocity\n"
+
+
+@pytest.mark.parametrize("name", COUPLED)
+def test_import_real_coupled_logs(name):
+    path = real_file(name)
+    raw = pd.read_csv(path, dtype={"timestamp": "int64"})
+    assert detect_format(path) == "coupled_log"
+    rec = read_any(path)
+    assert list(rec.data.columns) == ["time_s", "pipe_angle_rad", "steer_angle_rad"]
+    assert rec.kind == "steer_coupled" and rec.main_signal() == "pipe_angle_rad"
+    assert rec.pressure_kpa is None and rec.meta["pressure_source"] == "unknown"
+    assert rec.meta["source_format"] == "coupled_log" and rec.meta["time_offset_ns"] == int(raw["timestamp"][0])
+    np.testing.assert_allclose(rec.time, (raw["timestamp"].to_numpy() - raw["timestamp"][0]) * 1e-9, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(rec.signal("pipe_angle_rad"), raw["ball_roll.position"])
+    np.testing.assert_array_equal(rec.signal("steer_angle_rad"), raw["roll_joint.position"])
+    # README: 3.3-5.3 s at about 50 Hz; tilted to about -0.36 rad with the pendulum at about +0.39 rad
+    assert 3.2 < rec.time[-1] < 5.4 and 0.015 < np.median(np.diff(rec.time)) < 0.025
+    assert rec.signal("pipe_angle_rad")[0] == pytest.approx(-0.36, abs=0.03)
+    assert rec.signal("steer_angle_rad")[0] == pytest.approx(0.38, abs=0.03)
+
+
+def test_synthetic_coupled_log(tmp_path):
+    path = _native(tmp_path, COUPLED_HEADER + "13307865436928,-0.378,0.396\n13307884630496,-0.372,0.395\n"
+                   "13307903000000,-0.369,0.394\n")
+    assert detect_format(path) == "coupled_log"
+    rec = read_any(path)
+    np.testing.assert_allclose(rec.time, [0.0, 0.019193568, 0.037563072], rtol=0, atol=1e-15)
+    np.testing.assert_array_equal(rec.signal("pipe_angle_rad"), [-0.378, -0.372, -0.369])
+    np.testing.assert_array_equal(rec.signal("steer_angle_rad"), [0.396, 0.395, 0.394])
+    # its pipe angle alone is a shell rocking record, by flag; no other kind
+    shell = read_any(path, kind="shell_rock", pressure_kpa=13.8)
+    assert shell.kind == "shell_rock" and shell.pressure_kpa == 13.8 and shell.meta["pressure_source"] == "flag"
+    assert _message(path, kind="steer_stand") == (
+        f"{path}: field kind: a coupled steer log can only be kind steer_coupled or shell_rock, not 'steer_stand'; "
+        "drop --kind or use the matching log")
+
+
+def test_synthetic_steer_trial_log(tmp_path):
+    path = _native(tmp_path, TRIAL_HEADER + "5500000000,0.9,0.0\n5512500000,0.899,-0.1\n5525000000,0.897,-0.2\n")
+    assert detect_format(path) == "steer_trial_log"
+    rec = read_any(path)
+    assert list(rec.data.columns) == ["time_s", "steer_angle_rad", "steer_rate_rad_s"]
+    assert rec.kind == "steer_stand" and rec.pressure_kpa is None and "pressure_source" not in rec.meta
+    assert rec.meta["source_format"] == "steer_trial_log" and rec.meta["time_offset_ns"] == 5_500_000_000
+    np.testing.assert_allclose(rec.time, [0.0, 0.0125, 0.025], rtol=0, atol=1e-15)
+    np.testing.assert_array_equal(rec.signal("steer_angle_rad"), [0.9, 0.899, 0.897])
+    np.testing.assert_array_equal(rec.signal("steer_rate_rad_s"), [0.0, -0.1, -0.2])
+    assert _message(path, kind="shell_rock") == (
+        f"{path}: field kind: a steer-stand trial log can only be kind steer_stand, not 'shell_rock'; "
+        "drop --kind or use the matching log")
+
+
+@pytest.mark.parametrize("header, what", [(COUPLED_HEADER, "coupled steer log"), (TRIAL_HEADER, "steer-stand trial log")])
+def test_nanosecond_errors_name_the_log(tmp_path, header, what):
+    frac = _native(tmp_path, header + "0,0.4,0\n10000000.5,0.4,0\n", "frac.csv")
+    assert _message(frac) == (f"{frac}: line 3, column timestamp: 10000000.5 is not an integer number of nanoseconds; "
+                              f"the {what}'s timestamp column must be integer nanoseconds")
+    fine = _native(tmp_path, header + "0,0.4,0\n10,0.4,0\n20,0.4,0\n", "fine.csv")
+    assert "far too small for nanoseconds" in _message(fine)
+
+
+def test_a_header_with_every_shell_column_stays_a_shell_log(tmp_path):
+    """Detection keeps its order: a log holding the shell log's columns is a shell log, whatever
+    else it holds (as before the coupled format was known)."""
+    path = _native(tmp_path, "timestamp,ball_roll.position,roll_joint.position,ball_roll.velocity\n"
+                   "0,-0.4,0.3,0\n10000000,-0.39,0.3,0.1\n")
+    assert detect_format(path) == "shell_log"
+    assert list(read_any(path).data.columns) == ["time_s", "pipe_angle_rad", "pipe_rate_rad_s"]
+
+
+def test_unknown_header_lists_every_native_format(tmp_path):
+    msg = _message(_native(tmp_path, "stamp,angle\n0,1\n"))
+    assert "timestamp,ball_roll.position,roll_joint.position" in msg
+    assert "timestamp,roll_joint.position,roll_joint.velocity" in msg and "\n" not in msg
+
+
+def test_steer_coupled_recordings_are_read_and_written(tmp_path):
+    """steer_coupled is a kind of the recording format: pipe angle and steer angle, pressure null
+    where unknown; both signals must be there."""
+    data = pd.DataFrame({"time_s": [0.0, 0.02, 0.04], "pipe_angle_rad": [-0.36, -0.35, -0.34],
+                         "steer_angle_rad": [0.39, 0.39, 0.38]})
+    out = write_recording(tmp_path / "coupled.csv", data, {"kind": "steer_coupled", "pressure_kpa": None})
+    back = read_any(out)
+    assert back.kind == "steer_coupled" and back.pressure_kpa is None
+    np.testing.assert_array_equal(back.data.to_numpy(), data.to_numpy())
+    assert json.loads((tmp_path / "coupled.json").read_text())["pressure_kpa"] is None
+    lone = tmp_path / "lone.csv"
+    lone.write_text("time_s,pipe_angle_rad\n0,-0.36\n0.02,-0.35\n")
+    assert _message(lone, kind="steer_coupled") == (
+        f"{lone}: line 1 (header): missing column steer_angle_rad needed for kind steer_coupled "
+        "(columns: time_s, pipe_angle_rad); add the column or check the kind")

@@ -11,6 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from conftest import COUPLED, real_file
 from roboball.errors import RoboballError
 from roboball.ingest.importers import read_any
 from roboball.ingest.recording import Recording
@@ -404,3 +405,106 @@ def test_a_body_at_rest_stepping_by_a_few_mrad_makes_no_hold_inside_a_swing(nois
     ext = zigzag(sig.ys, sig.hysteresis)
     out, inner = holds_inside_swings(sig, ext, 0.25, 0.1)
     assert inner == set() and list(out) == list(ext)
+
+
+# --------------------------------------------------------------------------------------
+# Trimmed logs: they start at (or a few samples after) the let-go, with no hold
+# (recordings.md, Releases); the first sample is the release
+# --------------------------------------------------------------------------------------
+def _cut(rec, t_cut: float, samples_after: int, signal: str | None = None):
+    """The recording's time and signal from the first sample at or after `t_cut`, plus
+    `samples_after` samples."""
+    t, y = rec.time, rec.signal(signal or rec.main_signal())
+    i = int(np.searchsorted(t, t_cut)) + samples_after
+    return t[i:], y[i:]
+
+
+@pytest.mark.parametrize("name", COUPLED)
+def test_real_coupled_logs_are_released_at_their_first_sample(name):
+    """README: each coupled repeat starts within a few samples of the let-go, already moving
+    (about 0.2-0.4 rad/s) from a shell tilted to about -0.36 rad; it settles at +0.00..+0.06 rad
+    after one and a half swings."""
+    rec = read_any(real_file(name))
+    (r,) = recording_releases(rec)
+    assert r.t_release_s == rec.time[0] == 0.0 and r.i_release == 0 and r.held_from_s == 0.0
+    assert r.y_release == rec.main_values()[0]
+    assert -0.01 < r.y_rest < 0.1
+    assert r.t_end_s > 3.0
+    assert 2 * r.half_period_s == pytest.approx(2.9, abs=0.7)
+
+
+@pytest.mark.parametrize("samples_after", [0, 2, 3, 5])
+def test_real_shell_log_cut_at_its_let_go(samples_after):
+    """The real shell log cut at its let-go near 33 s (and a few samples after): one release, at
+    the first sample, with the same rest as in the whole log."""
+    t, y = _cut(read_any(real_file("dynamic_data.csv")), 33.0, samples_after)
+    (r,) = find_releases(t, y, "shell_rock")
+    assert r.t_release_s == t[0] and r.i_release == 0
+    assert r.y_rest == pytest.approx(0.011, abs=0.003)
+    assert r.t_end_s > 36.0
+
+
+def test_real_shell_log_cut_while_held_keeps_its_release_at_the_let_go():
+    """Cut 0.2 s before the let-go, while the hand still holds the shell: the hand's tremor about
+    the hold (a few mrad) is no trimmed release; the release stays at the let-go."""
+    t, y = _cut(read_any(real_file("dynamic_data.csv")), 32.8, 0)
+    (r,) = find_releases(t, y, "shell_rock")
+    assert r.t_release_s == pytest.approx(33.03, abs=0.05)
+    assert r.y_rest == pytest.approx(0.011, abs=0.003)
+
+
+@pytest.mark.parametrize("samples_after", [0, 2, 3, 5])
+def test_real_steer_log_cut_at_its_second_let_go(samples_after):
+    """Cut at the second let-go (17.03-17.06 s): released at the first sample, and the third
+    release is found where it is in the whole log."""
+    t, y = _cut(read_any(real_file("steering_static_stand_response.csv")), 17.05, samples_after)
+    rel = find_releases(t, y, "steer_stand")
+    assert [r.t_release_s for r in rel] == pytest.approx([t[0], 26.01], abs=0.05)
+    assert rel[0].t_release_s == t[0] and rel[0].i_release == 0
+    assert -0.045 < rel[0].y_rest < -0.02
+    assert rel[0].t_end_s < rel[1].held_from_s
+
+
+def _trimmed_log(seed: int, offset: float, zeta: float, omega_n: float):
+    """A synthetic log that starts at the let-go: no rest before it, no move, no hold."""
+    spec = dict(offset=offset, zeta=zeta, omega_n=omega_n, move_s=0.0, hold_s=0.0)
+    return synthetic_release_log([spec], rest=-0.035, lead_s=0.0, seed=seed)
+
+
+@pytest.mark.parametrize("samples_after", [0, 2, 3, 5])
+@pytest.mark.parametrize("seed", range(8))
+def test_synthetic_trimmed_logs(seed, samples_after):
+    rng = np.random.default_rng(300 + seed)
+    offset = float(rng.choice([-1, 1]) * rng.uniform(0.05, 1.0))
+    t, y, truth = _trimmed_log(seed, offset, float(rng.uniform(0.02, 0.3)), float(rng.uniform(2.0, 7.0)))
+    t, y = t[samples_after:], y[samples_after:]
+    (r,) = find_releases(t, y, "steer_stand")
+    assert r.t_release_s == t[0] and r.i_release == 0 and r.held_from_s == t[0]
+    assert r.y_rest == pytest.approx(-0.035, abs=0.01)
+    assert 2 * r.half_period_s == pytest.approx(2 * np.pi / truth[0]["omega_d"], rel=0.15)
+
+
+@pytest.mark.parametrize("phase_deg", [60, 75, 85])
+@pytest.mark.parametrize("seed", range(4))
+def test_a_log_cut_late_in_a_swing_is_no_trimmed_release(seed, phase_deg):
+    """A record cut well after the let-go (60-85 deg into the first swing, racing towards rest) is
+    no log trimmed at a let-go: not released at its first sample."""
+    rng = np.random.default_rng(400 + seed)
+    omega_n = float(rng.uniform(2.0, 7.0))
+    t, y, _ = _trimmed_log(seed, float(rng.choice([-1, 1]) * rng.uniform(0.2, 1.0)), float(rng.uniform(0.02, 0.3)),
+                           omega_n)
+    i = int(np.searchsorted(t, np.radians(phase_deg) / omega_n))
+    assert all(r.t_release_s != t[i] for r in find_releases(t[i:], y[i:], "steer_stand"))
+
+
+@pytest.mark.parametrize("start", ["at rest", "held away from rest"])
+def test_a_log_that_starts_still_and_never_moves_has_no_release(start):
+    rng = np.random.default_rng(8)
+    t = np.cumsum(rng.uniform(0.010, 0.0125, 1500))
+    level = -0.035 if start == "at rest" else 0.6
+    y = np.round((level + rng.normal(0, 0.0005, t.size)) / 0.001) * 0.001
+    rec = Recording(pd.DataFrame({"time_s": t, "steer_angle_rad": y}), {"kind": "steer_stand", "pressure_kpa": None},
+                    Path("runs/still.csv"))
+    assert recording_releases(rec) == []
+    with pytest.raises(RoboballError, match=r"^runs/still.csv: steer_angle_rad: no release found"):
+        require_releases(rec)

@@ -38,6 +38,11 @@ release.  Only the largest half swing is given up, so the start moves there only
 least `MIN_TURNS_AFTER` further turning points follow within the window (a body stopped by
 strong dry friction after one overshoot keeps its release start).
 
+A log trimmed at (or a few samples after) the let-go has its release at its first sample (the
+release finder's), and its window is cut like any other: a trimmed log of the real shell rocking
+gets the very window of the whole log.  When the window starts at that release, the fitted release
+instant (up to the model's ts_bound earlier) stands for the few samples the body had already moved.
+
 The noise level (sensor noise and quantisation) comes from the release finder's estimate.
 Undamped records (the shell baseline has no dissipation at all) have holds but no decaying
 oscillation, which roboball.ingest.releases does not accept; `_hold_releases` then takes the ends of
@@ -57,6 +62,7 @@ from roboball.ingest.recording import Recording, normalise
 from roboball.ingest.releases.find import require_releases
 from roboball.ingest.releases.record import Release
 from roboball.ingest.releases.signal import prepare_signal, zigzag
+from roboball.kinds import NOT_YET, not_yet_message
 
 PRE_S = 0.05
 RAMP_SMOOTH_S = 0.1
@@ -330,7 +336,10 @@ def smooth_after(t: np.ndarray, y: np.ndarray, t0: float, half_width: float) -> 
 
 
 def prepare(rec: Recording) -> Prepared:
-    """Fit windows of every release in `rec` (normalised first)."""
+    """Fit windows of every release in `rec` (normalised first).  A kind the diagnosis has no
+    baseline for yet (roboball.kinds.NOT_YET) is a one-line RoboballError naming the file."""
+    if rec.kind in NOT_YET["diagnosis"]:
+        raise RoboballError(f"{rec.label}: {not_yet_message(rec.kind, 'diagnosis')}")
     rec = normalise(rec)
     kind = rec.kind
     signal = rec.main_signal()

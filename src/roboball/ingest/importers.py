@@ -1,17 +1,22 @@
-"""Importers for the paper authors' native log formats.
-
-The authors' repository ships two kinds of raw logs (recordings.md, bottom):
+"""Importers for the paper authors' native log formats (recordings.md, bottom), told apart by
+their header:
 
 * steer-stand log: ``steer_timestamp`` (s), ``pend_angle`` (rad)
   -> ``time_s`` (shifted to start at 0), ``steer_angle_rad``; kind ``steer_stand``.
 * shell log: ``timestamp`` (integer nanoseconds), ``ball_roll.position`` (rad),
   ``ball_roll.velocity`` (rad/s) -> ``time_s`` (seconds from the first sample),
   ``pipe_angle_rad``, ``pipe_rate_rad_s``; kind ``shell_rock``.
+* coupled steer-direction test: ``timestamp`` (ns), ``ball_roll.position`` (rad, the pipe
+  angle), ``roll_joint.position`` (rad, the steer joint angle) -> ``time_s``,
+  ``pipe_angle_rad``, ``steer_angle_rad``; kind ``steer_coupled``.
+* steer-stand trial: ``timestamp`` (ns), ``roll_joint.position`` (rad),
+  ``roll_joint.velocity`` (rad/s) -> ``time_s``, ``steer_angle_rad``, ``steer_rate_rad_s``;
+  kind ``steer_stand``.
 
 Native logs carry no sidecar, so kind and pressure come from flags, from a sidecar placed
-next to the log if there is one, or from defaults.  A shell log without a known pressure is
-imported with ``pressure_kpa = None`` and ``meta["pressure_source"] = "unknown"`` (the real
-log's pressure was not recorded); code that needs the pressure must check.
+next to the log if there is one, or from defaults.  A shell or coupled log without a known
+pressure is imported with ``pressure_kpa = None`` and ``meta["pressure_source"] = "unknown"``
+(the real logs' pressure was not recorded); code that needs the pressure must check.
 
 The converted data pass the same validation as any recording (monotone time, radians,
 finite numbers) and the errors have the same one-line form.
@@ -33,17 +38,41 @@ from roboball.ingest.validate import check_meta, check_values
 
 __all__ = ["NATIVE_FORMATS", "detect_format", "import_native", "read_any"]
 
-# format name -> (required native columns, default kind, allowed kinds)
+# format name -> required native columns (in the order of the native header), what each becomes,
+# default kind, allowed kinds, what error messages call the log, and whether the shell's pressure
+# matters (then an unknown one is flagged).  Detection tries them in this order.
 NATIVE_FORMATS = {
     "steer_log": {
         "columns": ("steer_timestamp", "pend_angle"),
+        "signals": {"pend_angle": "steer_angle_rad"},
         "kind": "steer_stand",
         "kinds": ("steer_stand",),
+        "what": "steer log",
+        "shell": False,
     },
     "shell_log": {
         "columns": ("timestamp", "ball_roll.position", "ball_roll.velocity"),
+        "signals": {"ball_roll.position": "pipe_angle_rad", "ball_roll.velocity": "pipe_rate_rad_s"},
         "kind": "shell_rock",
         "kinds": ("shell_rock",),
+        "what": "shell log",
+        "shell": True,
+    },
+    "coupled_log": {
+        "columns": ("timestamp", "ball_roll.position", "roll_joint.position"),
+        "signals": {"ball_roll.position": "pipe_angle_rad", "roll_joint.position": "steer_angle_rad"},
+        "kind": "steer_coupled",
+        "kinds": ("steer_coupled", "shell_rock"),   # its pipe angle alone is a shell rocking record
+        "what": "coupled steer log",
+        "shell": True,
+    },
+    "steer_trial_log": {
+        "columns": ("timestamp", "roll_joint.position", "roll_joint.velocity"),
+        "signals": {"roll_joint.position": "steer_angle_rad", "roll_joint.velocity": "steer_rate_rad_s"},
+        "kind": "steer_stand",
+        "kinds": ("steer_stand",),
+        "what": "steer-stand trial log",
+        "shell": False,
     },
 }
 
@@ -57,8 +86,10 @@ def _header_of(path: Path) -> list[str]:
 
 
 def detect_format(path: str | Path) -> str:
-    """Which format a CSV file is in: "recording", "steer_log" or "shell_log", judged from
-    its header row.  Raises RecordingError if it is none of them."""
+    """Which format a CSV file is in: "recording" or one of NATIVE_FORMATS ("steer_log",
+    "shell_log", "coupled_log", "steer_trial_log"), judged from its header row (the first
+    format, in NATIVE_FORMATS' order, whose columns it starts with or holds).  Raises
+    RecordingError if it is none of them."""
     path = Path(path)
     header = _header_of(path)
     if header and header[0] == "time_s":
@@ -69,11 +100,11 @@ def detect_format(path: str | Path) -> str:
     raise recording_error(
         path, "line 1 (header)",
         f"not a recording (first column time_s) nor a known native log (columns: {', '.join(header)})",
-        "expected time_s,...; steer_timestamp,pend_angle; or timestamp,ball_roll.position,ball_roll.velocity",
+        "expected time_s,...; " + "; ".join(",".join(spec["columns"]) for spec in NATIVE_FORMATS.values()),
     )
 
 
-def _integer_cells(path: Path, text: str, line_numbers, j: int) -> np.ndarray:
+def _integer_cells(path: Path, text: str, line_numbers, j: int, what: str) -> np.ndarray:
     """Column `j` of the given (1-based) file lines as exact int64 (parse_numeric_csv reads
     floats, which hold integers only up to 2**53); a one-line error for a cell that is not an
     integer within int64."""
@@ -86,10 +117,10 @@ def _integer_cells(path: Path, text: str, line_numbers, j: int) -> np.ndarray:
             v = int(cell)
         except ValueError:
             raise recording_error(path, f"line {int(n)}, column timestamp", f"{cell[:40]!r} is not an integer number of "
-                                  "nanoseconds", "the shell log's timestamp column must be integer nanoseconds") from None
+                                  "nanoseconds", f"the {what}'s timestamp column must be integer nanoseconds") from None
         if not -2 ** 63 <= v < 2 ** 63:
             raise recording_error(path, f"line {int(n)}, column timestamp", f"{cell[:40]} is beyond 64-bit integers",
-                                  "the shell log's timestamp column must be integer nanoseconds")
+                                  f"the {what}'s timestamp column must be integer nanoseconds")
         out[r] = v
     return out
 
@@ -101,11 +132,11 @@ def import_native(
     ramp_angle_deg: float | None = None,
     ramp_exit_s: float | None = None,
 ) -> Recording:
-    """Convert a native steer-stand or shell log into a :class:`Recording` (in memory; use
-    :func:`roboball.ingest.recording.write_recording` to save it).
+    """Convert one of the authors' native logs (NATIVE_FORMATS) into a :class:`Recording` (in
+    memory; use :func:`roboball.ingest.recording.write_recording` to save it).
 
     Time is shifted to start at 0; the offset is kept in ``meta["time_offset_s"]``
-    (steer log, seconds) or ``meta["time_offset_ns"]`` (shell log, integer ns).
+    (steer log, seconds) or ``meta["time_offset_ns"]`` (the logs stamped in integer ns).
     """
     path = Path(path)
     fmt = detect_format(path)
@@ -121,7 +152,7 @@ def import_native(
     if fmt == "steer_log":
         out_header, out = _steer_columns(path, values, col, meta)
     else:
-        out_header, out = _shell_columns(path, text, values, line_numbers, col, meta, sources)
+        out_header, out = _ns_columns(path, text, values, line_numbers, col, spec, meta, sources)
     meta["source_format"] = fmt
     meta["source_file"] = path.name
 
@@ -148,7 +179,7 @@ def _meta(path: Path, fmt: str, **flags: Any) -> tuple[dict[str, Any], dict[str,
     if meta["kind"] not in spec["kinds"]:
         raise recording_error(
             path, "field kind",
-            f"a {fmt.replace('_', ' ')} can only be kind {' or '.join(spec['kinds'])}, not {meta['kind']!r}",
+            f"a {spec['what']} can only be kind {' or '.join(spec['kinds'])}, not {meta['kind']!r}",
             "drop --kind or use the matching log",
         )
     return meta, sources
@@ -168,43 +199,53 @@ def _steer_columns(path: Path, values: np.ndarray, col: dict[str, int], meta: di
     return out_header, out
 
 
-def _shell_columns(path: Path, text: str, values: np.ndarray, line_numbers: np.ndarray, col: dict[str, int],
-                   meta: dict, sources: dict[str, str]) -> tuple[list[str], np.ndarray]:
-    """The shell log as (header, values) of a recording, its integer-nanosecond stamps turned into
-    seconds from the first sample; the offset and where the pressure came from go into `meta`."""
-    raw = values[:, col["timestamp"]]
+def _nanoseconds(path: Path, text: str, values: np.ndarray, line_numbers: np.ndarray, j: int,
+                 what: str) -> np.ndarray:
+    """Column `j` (the integer-nanosecond ``timestamp``) as exact int64; a one-line error for
+    stamps that are not integers or far too fine for nanoseconds."""
+    raw = values[:, j]
     frac = np.nonzero(np.isfinite(raw) & (raw != np.round(raw)))[0]
     if frac.size:
         r = int(frac[0])
         raise recording_error(
             path, f"line {line_numbers[r]}, column timestamp",
             f"{raw[r]:.9g} is not an integer number of nanoseconds",
-            "the shell log's timestamp column must be integer nanoseconds",
+            f"the {what}'s timestamp column must be integer nanoseconds",
         )
     # Integer nanoseconds up to ~9e15 are exact in float64; beyond that (epoch nanoseconds,
     # ~1.7e18) the cells of the very rows parse_numeric_csv read are read again as Python integers.
     if np.all(np.isfinite(raw)) and np.max(np.abs(raw)) < 2 ** 53:
         t_ns = raw.astype(np.int64)
     else:
-        t_ns = _integer_cells(path, text, line_numbers, col["timestamp"])
+        t_ns = _integer_cells(path, text, line_numbers, j, what)
     steps = np.diff(t_ns)
     pos = steps[steps > 0]
     if pos.size and np.median(pos) < 1e3:
         raise recording_error(
             path, "column timestamp",
             f"median step {np.median(pos):.4g} is far too small for nanoseconds",
-            "the shell log's timestamp column must be integer nanoseconds",
+            f"the {what}'s timestamp column must be integer nanoseconds",
         )
+    return t_ns
+
+
+def _ns_columns(path: Path, text: str, values: np.ndarray, line_numbers: np.ndarray, col: dict[str, int],
+                spec: dict, meta: dict, sources: dict[str, str]) -> tuple[list[str], np.ndarray]:
+    """A log stamped in integer nanoseconds as (header, values) of a recording: its stamps turned
+    into seconds from the first sample, its columns renamed (spec["signals"]); the offset and,
+    for a shell on the ground, where the pressure came from go into `meta`."""
+    t_ns = _nanoseconds(path, text, values, line_numbers, col["timestamp"], spec["what"])
     offset_ns = int(t_ns[0])
     time_s = (t_ns - offset_ns).astype(float) * 1e-9
-    out_header = ["time_s", "pipe_angle_rad", "pipe_rate_rad_s"]
-    out = np.column_stack([time_s, values[:, col["ball_roll.position"]], values[:, col["ball_roll.velocity"]]])
+    out_header = ["time_s"] + list(spec["signals"].values())
+    out = np.column_stack([time_s] + [values[:, col[native]] for native in spec["signals"]])
     meta["time_offset_ns"] = offset_ns
-    if meta.get("pressure_kpa") is None:
-        meta["pressure_kpa"] = None
-        meta["pressure_source"] = "unknown"
-    else:
-        meta.setdefault("pressure_source", sources.get("pressure_kpa", "sidecar").split(" ")[0])
+    if spec["shell"]:
+        if meta.get("pressure_kpa") is None:
+            meta["pressure_kpa"] = None
+            meta["pressure_source"] = "unknown"
+        else:
+            meta.setdefault("pressure_source", sources.get("pressure_kpa", "sidecar").split(" ")[0])
     return out_header, out
 
 

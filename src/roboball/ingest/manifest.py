@@ -9,7 +9,7 @@ from pathlib import Path
 
 from roboball.errors import ConfigError
 from roboball.ingest.validate import MAX_PRESSURE_KPA
-from roboball.kinds import RECORDED
+from roboball.kinds import NOT_YET, RECORDED, not_yet_message
 
 __all__ = ["read_manifest"]
 
@@ -19,7 +19,8 @@ def read_manifest(raw_dir: str | Path) -> dict[str, dict]:
     optional ``pressure_kpa``; others ignored), checked before the workflow plans anything.
 
     Returns stem -> {"src": path, "kind": kind, "pressure_kpa": text or ""}.  Raises a one-line
-    :class:`ConfigError` naming the manifest line for a missing file, an unknown kind, a pressure
+    :class:`ConfigError` naming the manifest line for a missing file, an unknown kind (or one the
+    workflow does not handle yet: roboball.kinds.NOT_YET), a pressure
     that is not a gauge pressure in kPa, or two recordings with the same stem (their results
     would overwrite each other)."""
     raw_text = os.fspath(raw_dir)      # paths are joined as given (they end up in the results)
@@ -70,7 +71,10 @@ def _checked_row(r: dict[str, str], where: str, raw_dir: Path) -> str:
     if not src.is_file():
         raise ConfigError(f"{where}: {r['file']}: file not found in {raw_dir}; fix the path or remove the line")
     if r["kind"] not in RECORDED:
-        raise ConfigError(f"{where}: column kind: unknown kind {r['kind']!r}; valid kinds: {', '.join(RECORDED)}")
+        valid = [k for k in RECORDED if k not in NOT_YET["pipeline"]]
+        raise ConfigError(f"{where}: column kind: unknown kind {r['kind']!r}; valid kinds: {', '.join(valid)}")
+    if r["kind"] in NOT_YET["pipeline"]:
+        raise ConfigError(f"{where}: {r['file']}: {not_yet_message(r['kind'], 'pipeline')}; remove the line")
     text = r.get("pressure_kpa", "")
     if text.lower() not in ("", "nan", "none", "null"):
         try:

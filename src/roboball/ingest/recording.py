@@ -111,8 +111,8 @@ class Recording:
 
     def main_signal(self) -> str:
         """Name of the column that carries the experiment's response: steer_angle_rad
-        (steer_stand), drive_angle_rad (drive_stand), pipe_angle_rad (shell_rock),
-        drive_rate_rad_s (ramp)."""
+        (steer_stand), drive_angle_rad (drive_stand), pipe_angle_rad (shell_rock,
+        steer_coupled), drive_rate_rad_s (ramp)."""
         try:
             return MAIN_SIGNAL[self.kind]
         except KeyError:

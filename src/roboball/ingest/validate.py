@@ -12,7 +12,7 @@ from typing import Any, Callable, Mapping
 import numpy as np
 
 from roboball.ingest.errors import recording_error
-from roboball.kinds import ANGLE_SIGNALS, KNOWN_SIGNALS, MAIN_SIGNAL, PRESSURE_REQUIRED, RECORDED
+from roboball.kinds import ANGLE_SIGNALS, KNOWN_SIGNALS, MAIN_SIGNAL, PRESSURE_REQUIRED, RECORDED, SECOND_SIGNAL
 
 __all__ = ["DEFAULT_RAMP_ANGLE_DEG", "MAX_PRESSURE_KPA", "check_columns", "check_values", "check_meta"]
 
@@ -23,7 +23,8 @@ NS_STEP_LIMIT = 1e6  # a median step of more than 11 days is a nanosecond step
 
 NATIVE_HEADERS = {
     "steer_timestamp": "the authors' native steer-stand log (steer_timestamp, pend_angle)",
-    "timestamp": "the authors' native shell log (timestamp in ns, ball_roll.position, ...)",
+    "timestamp": "one of the authors' native logs with timestamps in ns (shell rocking, coupled steer test or "
+                 "steer-stand trial)",
 }
 
 
@@ -42,7 +43,7 @@ def _suggest_signal(name: str) -> str | None:
 
 def check_columns(file: Any, header: list[str], kind: str | None = None) -> None:
     """First column must be time_s; every other column a known signal; the kind's main
-    signal must be present."""
+    signal (and its second signal, if it has one) must be present."""
     first = header[0]
     if first != "time_s":
         if first in NATIVE_HEADERS:
@@ -74,12 +75,13 @@ def check_columns(file: Any, header: list[str], kind: str | None = None) -> None
             file, f"line 1 (header), column {j}", f"unknown signal column {name!r}",
             f"known signals: {', '.join(KNOWN_SIGNALS)}",
         )
-    if kind in MAIN_SIGNAL and MAIN_SIGNAL[kind] not in signals:
-        raise recording_error(
-            file, "line 1 (header)",
-            f"missing column {MAIN_SIGNAL[kind]} needed for kind {kind} (columns: {', '.join(header)})",
-            "add the column or check the kind",
-        )
+    for needed in (MAIN_SIGNAL.get(kind), SECOND_SIGNAL.get(kind)):
+        if needed is not None and needed not in signals:
+            raise recording_error(
+                file, "line 1 (header)",
+                f"missing column {needed} needed for kind {kind} (columns: {', '.join(header)})",
+                "add the column or check the kind",
+            )
 
 
 def check_values(

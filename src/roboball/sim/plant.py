@@ -49,7 +49,7 @@ from pydrake.systems.framework import Diagram, DiagramBuilder, System
 from pydrake.systems.primitives import Adder, LogVectorOutput, SymbolicVectorSystem, VectorLogSink
 
 from roboball.config import RobotFacts
-from roboball.kinds import SIMULATED
+from roboball.kinds import NOT_YET, SIMULATED, not_yet_message
 from roboball.physics import friction as friction_laws
 from roboball.sim.forces import ForceTerm, JointFriction, StateLayout, build_force_system
 from roboball.sim.pressure import scheduled_shell_system
@@ -209,6 +209,8 @@ def build(spec: SimSpec, sample_period: float | None = None, meshcat=None) -> Bu
 
 
 def _check_spec(spec: SimSpec) -> None:
+    if spec.kind in NOT_YET["simulation scenarios"]:
+        raise ValueError(not_yet_message(spec.kind, "simulation scenarios"))
     if spec.kind not in SIMULATED:
         raise ValueError(f"unknown kind '{spec.kind}' (choose from {', '.join(SIMULATED)})")
     if spec.contact not in CONTACTS:

@@ -33,7 +33,12 @@ same code works for a 1-mrad-quantised pendulum log at 80 Hz and a 100 Hz shell 
      not a hand lowering the body into a hand-held jiggle); or, with strong dry friction,
      it overshoots rest once by at least 10% of the offset and then stops.
    A record that starts slow and away from rest (a simulation started at the release
-   state) has its release at the first sample.
+   state) has its release at the first sample.  So does a log trimmed at (or a few samples
+   after) the let-go, with no hold before it: its first turning point is its first sample,
+   from which it swings towards rest into a decaying oscillation as above, no later than
+   45 deg into its swing (its speed over its distance from rest times omega is at most 1) and
+   with an offset of at least a quarter of the record's range (a hand's tremor while it holds
+   the body is no release).  A record that starts at rest is not one.
 4. The free response ends at the last turning point before the amplitude grows again (a
    hand), the rhythm breaks (a hold or a stop), or the swings sink into the noise, plus
    half a period; or at the end of the file.
@@ -48,6 +53,6 @@ linear/quadratic rise), ending at ``ramp_exit_s`` if the recording says when the
 the ramp.
 
 Modules: ``find`` (the entry points: find_releases, recording_releases, require_releases),
-``record`` (the Release), ``signal`` (steps 1-2), ``holds`` and ``rest`` (step 3),
+``record`` (the Release), ``signal`` (steps 1-2), ``holds``, ``rest`` and ``trimmed`` (step 3),
 ``oscillation`` (steps 3-5 for the oscillating kinds), ``hinge`` (step 5), ``ramp``.
 """

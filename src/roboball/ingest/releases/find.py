@@ -31,8 +31,9 @@ def find_releases(
 ) -> list[Release]:
     """Find the releases in one signal (the method: the docstring of roboball.ingest.releases).
 
-    `kind` is a recording kind: steer_stand, drive_stand, shell_rock (hand releases and
-    free oscillations) or ramp (one start of motion, ending at `ramp_exit_s` if given).
+    `kind` is a recording kind: steer_stand, drive_stand, shell_rock, steer_coupled (hand
+    releases and free oscillations; a log trimmed at the let-go is released at its first
+    sample) or ramp (one start of motion, ending at `ramp_exit_s` if given).
     `min_hold_s`: shortest hand hold accepted; `min_offset_sigma`: smallest hold offset
     from rest, in noise levels; `hold_speed`: fastest speed that still counts as held, as a
     fraction of the free swing's peak speed (offset x omega); `min_relative_offset`:

@@ -12,6 +12,7 @@ from roboball.ingest.releases.holds import hold_around, holds_inside_swings, is_
 from roboball.ingest.releases.record import Release
 from roboball.ingest.releases.rest import rest_estimate, settled_level
 from roboball.ingest.releases.signal import PreparedSignal, zigzag
+from roboball.ingest.releases.trimmed import starts_released
 
 __all__ = ["oscillation_releases"]
 
@@ -218,7 +219,9 @@ def _first_fitting_rest(sig: PreparedSignal, sw: _Swings, rests: list[float],
 def _hold_before(sig: PreparedSignal, sw: _Swings, offset: float, half_period: float, floor_index: int,
                  min_hold_s: float, hold_speed: float) -> _Hold | None:
     """The hand's hold that ends where the first swing starts; None if the body was not held
-    (or, with two or more swings, if the first half swing is not about a half period long)."""
+    (or, with two or more swings, if the first half swing is not about a half period long).  A
+    record that starts with its release (held, or trimmed at the let-go: roboball.ingest.releases.trimmed)
+    needs no hold before it."""
     tu, ys = sig.tu, sig.ys
     k0, k1, single = sw.k0, sw.k1, sw.single
     omega = math.pi / half_period
@@ -241,6 +244,8 @@ def _hold_before(sig: PreparedSignal, sw: _Swings, offset: float, half_period: f
     # A record that starts at rest away from rest (a simulation started at the
     # release state, or a log started during the hold) begins with its release.
     starts_held = s == 0 and abs(sig.vs[0]) <= v_thr
+    if ok and not (held_long or starts_held) and sw.j == 0 and starts_released(sig, k0, k1, offset, omega):
+        s, starts_held = 0, True     # so does a log trimmed at (or just after) the let-go
     ok = ok and (held_long or starts_held)
     if not ok:
         return None

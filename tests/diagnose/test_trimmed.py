@@ -1,0 +1,122 @@
+"""Trimmed logs in the diagnosis (diagnosis.md: a recording that starts at, or just after, the
+let-go is diagnosed from its first sample, not refused), and the steer_coupled kind in the stages
+that cannot handle it yet (one line naming the file, never a traceback)."""
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from conftest import COUPLED, real_file
+from roboball.cli.main import main as cli_main
+from roboball.diagnose.data import prepare
+from roboball.ingest.recording import Recording
+from roboball.testbed.synthetic import synthetic_release_log
+
+
+def _trimmed_shell_log(folder: Path, samples_after: int) -> Path:
+    """The real shell log in its native format, cut at its let-go near 33 s (plus a few samples)."""
+    lines = real_file("dynamic_data.csv").read_text().splitlines()
+    stamps = np.array([int(line.split(",")[0]) for line in lines[1:]])
+    i = int(np.searchsorted((stamps - stamps[0]) * 1e-9, 33.0)) + samples_after
+    path = folder / "trimmed_shell.csv"
+    path.write_text("\n".join([lines[0]] + lines[1 + i:]) + "\n")
+    return path
+
+
+def _cli(args, capsys) -> tuple[int, str, str]:
+    try:
+        code = cli_main(args)
+    except SystemExit as exc:          # argparse usage errors
+        code = exc.code
+    out = capsys.readouterr()
+    return code, out.out, out.err.strip()
+
+
+def test_trimmed_real_shell_log_is_diagnosed_from_its_first_sample(tmp_path, capsys):
+    """`roboball diagnose` on the real shell log cut 3 samples after its let-go, kind from the
+    flag: a diagnosis, its one release at the first sample; its window (from the first turning
+    point after it, as for the whole log) gives the whole log's numbers."""
+    path = _trimmed_shell_log(tmp_path, 3)
+    out = tmp_path / "diag"
+    code, printed, err = _cli(["diagnose", str(path), "--kind", "shell_rock", "--out", str(out), "--no-drake"], capsys)
+    assert code == 0, err
+    js = json.loads((out / "diagnosis.json").read_text())
+    assert js["kind"] == "shell_rock" and js["verdict"] in ("adequate", "augmented", "unexplained")
+    (w,) = json.loads((out / "details.json").read_text())["windows"]
+    assert w["t_let_go_s"] == 0.0
+    assert w["start"] == "turning point" and w["t_release_s"] == pytest.approx(0.96, abs=0.05)
+    # the whole log (README): released near 33 s; its baseline misfit is the same window's
+    assert js["fit"]["rmse_before"] == pytest.approx(0.2235, abs=0.002)
+
+
+def test_a_coupled_log_diagnosed_as_shell_rocking_starts_at_its_first_sample(tmp_path):
+    """The coupled repeat's pipe angle, diagnosed as shell rocking by flag: one release at its
+    first sample, and too few swings follow to start the window anywhere later."""
+    from roboball.diagnose import diagnose
+    from roboball.diagnose.scored import Settings
+
+    d, js = diagnose(real_file(COUPLED[0]), kind="shell_rock", settings=Settings(max_effects=1))
+    (w,) = d.prep.windows
+    assert w.release.t_release_s == 0.0 and w.start == "release" and w.t[0] == 0.0
+    assert js["kind"] == "shell_rock" and js["fit"]["rmse_after"] <= js["fit"]["rmse_before"]
+
+
+@pytest.mark.parametrize("samples_after", [0, 3])
+def test_a_synthetic_trimmed_log_has_one_window_from_its_first_sample(samples_after):
+    spec = dict(offset=0.5, zeta=0.08, omega_n=5.0, move_s=0.0, hold_s=0.0)
+    t, y, _ = synthetic_release_log([spec], rest=-0.035, lead_s=0.0, seed=4)
+    t, y = t[samples_after:], y[samples_after:]
+    rec = Recording(pd.DataFrame({"time_s": t, "steer_angle_rad": y}), {"kind": "steer_stand", "pressure_kpa": None},
+                    Path("trimmed.csv"))
+    (w,) = prepare(rec).windows
+    assert w.release.t_release_s == t[0] and w.release.held_from_s == t[0]
+    assert w.start == "turning point" and w.t0 == pytest.approx(t[0] + np.pi / 5.0, abs=0.1)
+
+
+# --------------------------------------------------------------------------------------------
+# steer_coupled: recorded, not yet diagnosed, simulated or run by the workflow
+# --------------------------------------------------------------------------------------------
+def test_diagnosing_a_steer_coupled_log_is_a_one_line_error(capsys, tmp_path):
+    path = real_file(COUPLED[1])
+    code, _, err = _cli(["diagnose", str(path), "--out", str(tmp_path / "d")], capsys)
+    assert code != 0 and len(err.splitlines()) == 1, err
+    assert f"{path}: kind steer_coupled is not supported in the diagnosis yet" in err
+    assert "Traceback" not in err
+
+
+def test_a_steer_coupled_recording_is_refused_by_the_diagnosis_by_name():
+    from roboball.errors import RoboballError
+    rec = Recording(pd.DataFrame({"time_s": [0.0, 0.02], "pipe_angle_rad": [-0.3, -0.29],
+                                  "steer_angle_rad": [0.3, 0.3]}),
+                    {"kind": "steer_coupled", "pressure_kpa": None}, Path("runs/coupled.csv"))
+    with pytest.raises(RoboballError, match=r"^runs/coupled.csv: kind steer_coupled is not supported in the "
+                                            r"diagnosis yet$"):
+        prepare(rec)
+
+
+def test_simulation_scenarios_refuse_steer_coupled_in_one_line():
+    from roboball.sim.plant import SimSpec, build
+    with pytest.raises(ValueError, match=r"^kind steer_coupled is not supported in the simulation scenarios yet$"):
+        build(SimSpec(kind="steer_coupled"))
+
+
+def test_the_workflow_manifest_refuses_steer_coupled_in_one_line(tmp_path):
+    from roboball.errors import ConfigError
+    from roboball.ingest.manifest import read_manifest
+    raw = tmp_path / "raw"
+    raw.mkdir()
+    (raw / "c.csv").write_text("time_s,pipe_angle_rad,steer_angle_rad\n0,-0.3,0.3\n0.02,-0.29,0.3\n")
+    (raw / "MANIFEST.csv").write_text("file,kind,pressure_kpa\nc.csv,steer_coupled,\n")
+    with pytest.raises(ConfigError) as info:
+        read_manifest(raw)
+    assert str(info.value) == (f"{raw / 'MANIFEST.csv'}: line 2: c.csv: kind steer_coupled is not supported in the "
+                               "pipeline yet; remove the line")
+
+
+def test_steer_coupled_is_a_recorded_kind_with_two_signals():
+    from roboball.kinds import MAIN_SIGNAL, PRESSURE_REQUIRED, RECORDED, SECOND_SIGNAL, SIMULATED
+    assert "steer_coupled" in RECORDED and "steer_coupled" not in SIMULATED
+    assert (MAIN_SIGNAL["steer_coupled"], SECOND_SIGNAL["steer_coupled"]) == ("pipe_angle_rad", "steer_angle_rad")
+    assert "steer_coupled" not in PRESSURE_REQUIRED
