@@ -1,7 +1,11 @@
 """Blind proof of `roboball diagnose`: effects concealed in test-bed recordings, found or not.
 
     .venv/bin/python benchmarks/diagnose_blind.py [--seed 6] [--workers 2] [--only KIND] [--limit N]
-                                                 [--json results.json] [--keep DIR]
+                                                 [--json results.json] [--keep DIR] [--real-like]
+
+`--real-like` runs, instead of the clean cases below, the cases shaped like the real robot's logs
+(an estimator's lagging output, single heavily damped releases, logs that start at the let-go,
+stands slower than their URDF; benchmarks/real_like.py) and reports them apart.
 
 Each case draws an experiment kind, a concealed effect set (none, one effect, or a pair) and
 magnitudes from the ranges below, makes the recording with the virtual test bed
@@ -171,12 +175,16 @@ def _dense(case: dict):
     return dense, meta, rng
 
 
-def _write(dense, meta, rng, folder: Path) -> Path:
+def _write(dense, meta, rng, folder: Path, case: dict | None = None) -> Path:
     from roboball.ingest.recording import write_recording
     from roboball.testbed.physics import load_truth
     from roboball.testbed.sensors import measure
 
-    rec = measure(dense, load_truth()["sensors"], rng)
+    if case is not None and "sensor" in case:       # a real-like case (real_like.py)
+        import real_like
+        rec = real_like.sense(dense, case, rng)
+    else:
+        rec = measure(dense, load_truth()["sensors"], rng)
     path = folder / "recording.csv"
     write_recording(path, rec, meta)
     return path
@@ -184,7 +192,7 @@ def _write(dense, meta, rng, folder: Path) -> Path:
 
 def make_recording(case: dict, folder: Path) -> Path:
     """The test bed plays the experimenter: the recording and its sidecar, nothing else."""
-    return _write(*_dense(case), folder)
+    return _write(*_dense(case), folder, case)
 
 
 # ---- every concealed effect must show ------------------------------------------------------
@@ -216,7 +224,11 @@ def visibility(case: dict, dense=None) -> dict:
     if dense is None:
         dense = _dense(case)[0]
     t, y = dense.time_s.to_numpy(), dense[sig].to_numpy()
-    noise = noise_level(case["kind"])
+    if "sensor" in case:                            # a real-like case (real_like.py)
+        import real_like
+        noise = real_like.noise_level(case)
+    else:
+        noise = noise_level(case["kind"])
     out = {}
     for e in case["effects"]:
         other = _dense(dict(case, effects={k: v for k, v in case["effects"].items() if k != e}))[0]
@@ -237,7 +249,11 @@ def visible_draw(case: dict, attempts: int = 20):
         rejected.append({"effects": case["effects"], "visibility": vis})
         index = int(case["id"].rsplit("-", 1)[1])
         redraw = np.random.default_rng([case.get("draw_seed", 0), index, attempt + 1])
-        case = dict(case, effects=_magnitudes(case["kind"], tuple(case["effects"]), redraw))
+        if "group" in case:                         # a real-like case (real_like.py)
+            import real_like
+            case = dict(case, effects=real_like.redraw(case, redraw))
+        else:
+            case = dict(case, effects=_magnitudes(case["kind"], tuple(case["effects"]), redraw))
     raise RuntimeError(f"{case['id']}: no draw of {sorted(case['effects'])} in {attempts} shows in the recording")
 
 
@@ -247,7 +263,7 @@ def run_case(case: dict, keep: str | None = None) -> dict:
     with tempfile.TemporaryDirectory(prefix="blind_") as tmp:
         folder = Path(tmp) / "in"
         folder.mkdir()
-        csv = _write(*made, folder)
+        csv = _write(*made, folder, case)
         t_made = time.perf_counter() - t0
         assert sorted(p.name for p in folder.iterdir()) == ["recording.csv", "recording.json"]
         out = Path(tmp) / "out"
@@ -346,8 +362,13 @@ def main(argv=None) -> int:
     ap.add_argument("--limit", type=int, default=None)
     ap.add_argument("--json", default=None, help="write every case and the scores here")
     ap.add_argument("--keep", default=None, help="keep each case's recording and diagnosis under this folder")
+    ap.add_argument("--real-like", action="store_true", help="the real-like cases (real_like.py), reported apart")
     args = ap.parse_args(argv)
-    cases = draw_cases(args.seed)
+    if args.real_like:
+        import real_like
+        cases = real_like.draw_cases(args.seed)
+    else:
+        cases = draw_cases(args.seed)
     if args.only:
         cases = [c for c in cases if c["kind"] == args.only]
     if args.limit:
@@ -365,6 +386,13 @@ def main(argv=None) -> int:
                   f" [{d['verdict'] if d else '-'}] ({r['make_s']:.0f} + {r['diagnose_s']:.0f} s{redrawn}){small}",
                   flush=True)
     wall = time.perf_counter() - t0
+    if args.real_like:
+        s = real_like.report(results, wall, args.workers, args.seed)
+        if args.json:
+            Path(args.json).write_text(json.dumps(dict(scores={k: v for k, v in s.items() if k != "rows"},
+                                                       rows=s["rows"], cases=results, wall_s=wall, seed=args.seed),
+                                                  indent=1, default=float))
+        return 0
     s = score(results)
     print()
     print(confusion(s["rows"]))

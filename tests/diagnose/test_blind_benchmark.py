@@ -2,6 +2,7 @@
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from conftest import REPO
@@ -45,3 +46,45 @@ def test_visibility_is_measured_on_the_signal_the_diagnosis_fits():
                                      "ramp": "drive_rate_rad_s"}
     assert diagnose_blind.noise_level("steer_stand") == pytest.approx(4.9e-4, rel=0.02)
     assert diagnose_blind.noise_level("ramp") == pytest.approx(0.015, rel=0.02)
+
+
+# ---- the real-like cases (benchmarks/real_like.py, `--real-like`) ---------------------------------
+import real_like  # noqa: E402
+
+
+def test_the_real_like_cases_are_drawn_apart_and_shaped_like_the_real_logs():
+    clean = diagnose_blind.draw_cases(6)
+    cases = real_like.draw_cases(6)
+    assert cases == real_like.draw_cases(6) and cases != real_like.draw_cases(7)
+    assert diagnose_blind.draw_cases(6) == clean and not any("sensor" in c for c in clean)
+    assert {c["group"] for c in cases} == {"filtered", "damped", "trimmed", "slow stand"}
+    assert sum(not c["effects"] for c in cases) >= 4
+    assert any(not c["effects"] and c["sensor"] == "estimator" for c in cases)     # filtered nulls
+    for c in cases:
+        lo, hi = real_like.LAG_S
+        assert (lo <= c["lag_s"] <= hi) if c["sensor"] == "estimator" else c["lag_s"] == 0.0
+        if c["group"] in ("damped", "trimmed"):
+            assert len(c["releases"]) == 1
+        if c["group"] == "damped":
+            c_visc = c["effects"]["viscous_damping"]["c"] if c["kind"] == "shell_rock" else c["viscous_c"]
+            assert real_like.ZETA[0] <= c_visc / real_like._critical(c["kind"]) <= real_like.ZETA[1]
+        assert ("trim_after_s" in c) == (c["group"] == "trimmed") == ("trimmed-logs" in c["needs"])
+        assert ("added_inertia" in c["effects"]) == ("added_inertia" in c["needs"])
+
+
+def test_a_filtered_case_is_smooth_to_the_diagnosis_and_a_trimmed_one_starts_at_the_let_go(tmp_path):
+    from roboball.diagnose.sensor_fit import SMOOTH_NOISE, fresh, sample_noise
+    from roboball.ingest.recording import read_recording
+
+    cases = {c["id"]: c for c in real_like.draw_cases(6)}
+    trimmed = next(c for c in cases.values() if c["group"] == "trimmed" and c["sensor"] == "estimator"
+                   and not c["effects"])
+    dense, meta, rng = diagnose_blind._dense(trimmed)
+    path = diagnose_blind._write(dense, meta, rng, tmp_path, trimmed)
+    rec = read_recording(path)
+    t, y = rec.time, rec.signal("steer_angle_rad")
+    assert t[0] == 0.0 and t[-1] < diagnose_blind.FREE_S
+    held = np.interp(dense.attrs["let_go_s"][0], dense.time_s, dense.steer_angle_rad)
+    assert abs(y[0] - held) < 0.05 and abs(y[0] - held) > 0.0        # just after the let-go, moving
+    assert sample_noise(t[fresh(y)], y[fresh(y)]) < SMOOTH_NOISE
+    assert np.mean(np.abs(y / 1e-3 - np.round(y / 1e-3)) > 1e-3) > 0.9   # not on a 1 mrad grid

@@ -7,6 +7,7 @@ import math
 
 from roboball.physics import effects as fx
 from roboball.diagnose.select import Diagnosis
+from roboball.diagnose.sensor import LAG_KEY
 
 
 def _round(x, n=6):
@@ -20,6 +21,8 @@ def baseline_fitted(d: Diagnosis, values: dict | None = None) -> dict:
     of another fit of the same model (the augmented model refits them with its effects)."""
     v = d.baseline.values if values is None else values
     out = {b.name: _round(v[b.name]) for b in d.model.base_params}
+    if LAG_KEY in v:        # the sensor's own lag (roboball.diagnose.sensor_fit), not physics
+        out[LAG_KEY] = _round(v[LAG_KEY])
     unit = "rad" if d.prep.unit == "rad" else None
     for w in d.prep.windows:
         i = w.index + 1

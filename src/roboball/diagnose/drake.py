@@ -30,6 +30,7 @@ from roboball.sim.plant import build
 from roboball.sim.scenarios import simulate
 from roboball.sim.spec import SimSpec
 from roboball.diagnose.data import Prepared
+from roboball.diagnose.sensor import sensed
 from roboball.reduced.base import ReducedModel
 
 DRAKE_DT = {"steer_stand": 5e-4, "drive_stand": 5e-4, "shell_rock": 1e-3, "ramp": 1e-3}
@@ -136,7 +137,7 @@ def simulate_windows(prep: Prepared, model: ReducedModel, values: dict, effects,
         df = simulate(spec, release, max(duration, 0.1), sample_rate_hz=rate, steer0=steer0, built=built)
         tau = w.t - w.t0 - ts
         y = df[prep.signal].to_numpy()
-        out[w.index] = w.observe(np.interp(tau, df.time_s.to_numpy(), y, left=y[0]))
+        out[w.index] = w.observe(sensed(w, tau, df.time_s.to_numpy(), y, values))
     return out
 
 

@@ -24,6 +24,7 @@ import numpy as np
 
 from roboball.physics import effects as fx
 from roboball.diagnose.data import Prepared
+from roboball.diagnose.sensor import LAG_BOUNDS, LAG_KEY, LAG_TYPICAL, lag_grid, lag_of
 from roboball.reduced.base import DT, ReducedModel
 from roboball.reduced.integrate import hermite
 
@@ -87,6 +88,12 @@ class Engine:
             self.info[f"q0@{w.index}"] = (0.01, w.q0 - Q0_BOUND, w.q0 + Q0_BOUND)
             if "t_shift" in model.release_params:
                 self.info[f"ts@{w.index}"] = (0.01, -self.max_shift, self.max_shift)
+        # the sensor's own parameters (their values: starts of the fits where free) when the
+        # recording calls for them (roboball.diagnose.sensor_fit); none: predictions are compared
+        # as simulated
+        self.sensor: dict = {}
+        self.sensor_free: list = []
+        self.info[LAG_KEY] = (LAG_TYPICAL, *LAG_BOUNDS)
         self.n_sims = 0
         self.n_calls = 0
         self.sim_time = 0.0
@@ -102,6 +109,7 @@ class Engine:
         v = {b.name: b.start for b in self.model.base_params}
         for w in self.prep.windows:
             v.update(self._release_state(w))
+        v.update(self.sensor)
         return v
 
     def release_keys(self, windows=None) -> list:
@@ -118,6 +126,7 @@ class Engine:
         P = {k: np.fromiter((v.get(k, 0.0) for v, _ in items), float, B) for k in self.p_keys}
         q0 = np.fromiter((v.get(f"q0@{w}", self.windows[w].q0) for v, w in items), float, B)
         ts = np.fromiter((v.get(f"ts@{w}", 0.0) for v, w in items), float, B)
+        lag = np.fromiter((lag_of(v) for v, _ in items), float, B) if self.sensor else None
         horizon = max(self.windows[w].duration for _, w in items) + self.max_shift + 0.05
         n_steps = int(math.ceil(horizon / self.dt)) + 1
         import time as _time
@@ -131,6 +140,9 @@ class Engine:
             Y[bad] = DIVERGED
             Yd[bad] = 0.0
         Yd[~np.isfinite(Yd)] = 0.0
+        if lag is not None:             # as the lagging sensor reports it (roboball.diagnose.sensor)
+            swinging = np.fromiter((self.windows[w].start == "turning point" for _, w in items), bool, B)
+            Y, Yd = lag_grid(Y, Yd, self.dt, lag, swinging)
         self.sim_time += _time.process_time() - t0
         self.n_sims += B
         self.n_calls += 1

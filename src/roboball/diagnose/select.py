@@ -41,6 +41,7 @@ from roboball.diagnose.data import Prepared
 from roboball.diagnose.fit import Engine, Problem, effect_keys
 from roboball.diagnose.keep import KeepRule, immaterial
 from roboball.diagnose.scored import Scored, Settings
+from roboball.diagnose.sensor_fit import fit_sensor_lag, run_with_sensor_lag, without_stale
 from roboball.reduced.base import ReducedModel
 from roboball.reduced.models import model_for
 
@@ -77,7 +78,7 @@ class Selector(KeepRule):
 
     def __init__(self, prep: Prepared, model: ReducedModel | None = None, settings: Settings | None = None,
                  log=None):
-        self.prep = prep
+        self.prep = prep = without_stale(prep)     # a smooth estimate's stale repeats (sensor_fit)
         self.model = model or model_for(prep.kind, **({"ramp_angle_deg": prep.recording.ramp_angle_deg}
                                                       if prep.kind == "ramp" else {}))
         self.s = settings or Settings()
@@ -110,7 +111,8 @@ class Selector(KeepRule):
 
     # ---- problems -----------------------------------------------------------------------------
     def free_keys(self, effects, windows=None) -> list:
-        return [b.name for b in self.model.base_params] + effect_keys(effects) + self.engine.release_keys(windows)
+        return ([b.name for b in self.model.base_params] + self.engine.sensor_free + effect_keys(effects)
+                + self.engine.release_keys(windows))
 
     def full_problem(self, effects, values) -> Problem:
         return Problem(effects=tuple(effects), values=dict(values), free=self.free_keys(effects),
@@ -189,7 +191,7 @@ class Selector(KeepRule):
     # ---- the selection ----------------------------------------------------------------------
     def run(self) -> Diagnosis:
         t_start = time.perf_counter()
-        base = self._baseline()
+        base = fit_sensor_lag(self, self._baseline())     # the sensor's own lag, where called for
         timings = {"baseline_s": time.perf_counter() - t_start}
         current, chosen, steps = self._forward(base)
         timings["forward_s"] = time.perf_counter() - t_start - timings["baseline_s"]
@@ -436,4 +438,4 @@ def _reordered(sc: Scored, last: str) -> Scored:
 def diagnose_prepared(prep: Prepared, settings: Settings | None = None, log=None,
                       model: ReducedModel | None = None) -> Diagnosis:
     """Run the selection on a prepared recording (against `model`, default: the kind's baseline)."""
-    return Selector(prep, model=model, settings=settings, log=log).run()
+    return run_with_sensor_lag(Selector(prep, model=model, settings=settings, log=log))

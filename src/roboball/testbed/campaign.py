@@ -55,15 +55,18 @@ def _rest_angle(kind: str, robot) -> float:
 
 def release_recording(kind: str, p_kpa, releases, free_s: float, truth: dict, rng, extras=ALL_EXTRAS,
                       extra_terms=(), extra_systems=(), base_friction=None, robot=None) -> pd.DataFrame:
-    """Rest, then for each release: move, hold, let go, free response.  Dense (1 kHz) signals.
-    `base_friction` and `robot`: see roboball.testbed.run.truth_spec (blind diagnosis cases)."""
+    """Rest, then for each release: move, hold, let go, free response.  Dense (1 kHz) signals,
+    with the let-go instants in `attrs["let_go_s"]` (s).  `base_friction` and `robot`: see
+    roboball.testbed.run.truth_spec (blind diagnosis cases)."""
     rate = truth["simulation"]["sample_rate_hz"]
     sig = SIGNAL[kind]
     angle = _rest_angle(kind, robot if robot is not None else true_robot(truth, perturbed="mass" in extras))
     pieces = [np.full(int(1.0 * rate), angle)]
+    let_go = []
     for target in releases:
         hand, held = hand_phase(angle, target, truth["hand"], rng, rate)
         pieces.append(hand)
+        let_go.append((sum(len(p) for p in pieces) - 1) / rate)   # the last held sample
         df, _, _ = run_free(kind, held, free_s, p_kpa, truth, extras, extra_terms=extra_terms,
                             extra_systems=extra_systems, base_friction=base_friction, robot=robot)
         y = df[sig].to_numpy()[1:]
@@ -74,6 +77,7 @@ def release_recording(kind: str, p_kpa, releases, free_s: float, truth: dict, rn
     dense = pd.DataFrame({"time_s": t, sig: y})
     if kind == "shell_rock":
         dense["pipe_rate_rad_s"] = np.gradient(y, t)
+    dense.attrs["let_go_s"] = let_go      # ground truth the recording does not carry
     return dense
 
 

@@ -10,6 +10,9 @@ recordings with THIS module, written independently of the diagnosis's effect lib
   compliance), not a memoryless regularised sign;
 * com_offset moves the centre of mass in the robot description itself (a real geometric
   change that Drake's multibody plant sees: gravity torque, inertia and rest angle);
+* added_inertia (stands) adds to the pendulum's own inertia about the joint axis in the robot
+  description (the diagnosis's law is a geared rotor's reflected inertia: the same slower
+  swing, another mechanism);
 * backlash is a dead-zone spring built from Drake symbolic if-then-else branches;
 * rolling_resistance on the ramp uses the algebraic smooth sign w / sqrt(w^2 + eps^2);
 * viscous_damping, quadratic_drag, linear_stiffness and cubic_stiffness are torque laws
@@ -51,6 +54,16 @@ def _rotate_com(robot: RobotFacts, links, axis: str, angle: float) -> RobotFacts
             z, x = c * z - s * x, s * z + c * x
         data["links"][name]["com_m"] = [float(x), float(y), float(z)]
     return RobotFacts(data, source=robot.source + " (centre of mass moved by the test bed)")
+
+
+def _add_inertia(robot: RobotFacts, link: str, axis: int, delta_i: float) -> RobotFacts:
+    """Robot facts with `delta_i` (kg m^2) added to `link`'s inertia about its own `axis` (0: x,
+    1: y): the test bed's slower stand, a body heavier to swing than the URDF says."""
+    data = copy.deepcopy(robot.data)
+    inertia = list(data["links"][link]["inertia_kg_m2"])
+    inertia[axis] = float(inertia[axis]) + float(delta_i)
+    data["links"][link]["inertia_kg_m2"] = inertia
+    return RobotFacts(data, source=robot.source + " (inertia added by the test bed)")
 
 
 def rest_angle(kind: str, robot: RobotFacts) -> float:
@@ -120,10 +133,9 @@ def _velocity_index(kind: str):
     return lambda layout: layout.base_v
 
 
-def conceal(kind: str, effects: dict, robot: RobotFacts):
-    """Terms, systems and robot facts that hide `effects` ({name: {param: value}}) in a test-bed
-    run of `kind`.  Returns (extra_terms, extra_systems, robot)."""
-    effects = dict(effects)
+def _described(kind: str, effects: dict, robot: RobotFacts) -> RobotFacts:
+    """The robot facts with the effects that live in the robot description (com_offset,
+    added_inertia) put there."""
     if "com_offset" in effects:
         delta = float(effects["com_offset"]["delta"])
         if kind == "steer_stand":
@@ -134,6 +146,19 @@ def conceal(kind: str, effects: dict, robot: RobotFacts):
             robot = _rotate_com(robot, ["pitch_center", "pendulum"], "x", -delta)
         else:
             raise ValueError(f"com_offset is not concealed in {kind} runs")
+    if "added_inertia" in effects:
+        if kind not in JOINT:
+            raise ValueError(f"added_inertia is not concealed in {kind} runs")
+        robot = _add_inertia(robot, "pendulum", 0 if kind == "steer_stand" else 1,
+                             effects["added_inertia"]["delta_i"])
+    return robot
+
+
+def conceal(kind: str, effects: dict, robot: RobotFacts):
+    """Terms, systems and robot facts that hide `effects` ({name: {param: value}}) in a test-bed
+    run of `kind`.  Returns (extra_terms, extra_systems, robot)."""
+    effects = dict(effects)
+    robot = _described(kind, effects, robot)
     rest = rest_angle(kind, robot)
     angle, rate, apply = _coordinate(kind)
     terms, systems = [], []
