@@ -22,7 +22,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from conftest import REPO
+from conftest import REPO, one_error_line
 BIN = Path(sys.executable).parent
 ROBOBALL = str(BIN / "roboball")
 SNAKEMAKE = str(BIN / "snakemake")
@@ -30,15 +30,6 @@ SNAKEMAKE = str(BIN / "snakemake")
 
 def roboball(*args, env=None) -> subprocess.CompletedProcess:
     return subprocess.run([ROBOBALL, *map(str, args)], capture_output=True, text=True, env=env, timeout=300)
-
-
-def one_error_line(r: subprocess.CompletedProcess) -> str:
-    """The single line a user error must produce on stderr."""
-    assert "Traceback" not in r.stderr, r.stderr
-    lines = [l for l in r.stderr.splitlines() if l.strip() and "Warning" not in l and "WARNING" not in l]
-    assert len(lines) == 1, r.stderr
-    assert lines[0].startswith("roboball: error: "), lines[0]
-    return lines[0][len("roboball: error: "):]
 
 
 # --------------------------------------------------------------------------------------------

@@ -19,21 +19,13 @@ import pytest
 from roboball.errors import RoboballError, SimulationError
 from roboball.sim.scenarios import simulate
 from roboball.sim.spec import ShellParams, SimSpec
+from conftest import one_error_line
 
 ROBOBALL = str(Path(sys.executable).parent / "roboball")
 
 
 def roboball(*args, env=None) -> subprocess.CompletedProcess:
     return subprocess.run([ROBOBALL, *map(str, args)], capture_output=True, text=True, env=env, timeout=300)
-
-
-def one_error_line(r: subprocess.CompletedProcess) -> str:
-    """The single line a user error must produce on stderr."""
-    assert "Traceback" not in r.stderr, r.stderr
-    lines = [l for l in r.stderr.splitlines() if l.strip() and "Warning" not in l and "WARNING" not in l]
-    assert len(lines) == 1, r.stderr
-    assert lines[0].startswith("roboball: error: "), lines[0]
-    return lines[0][len("roboball: error: "):]
 
 
 @pytest.mark.parametrize("args, what", [
