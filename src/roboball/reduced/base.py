@@ -74,6 +74,8 @@ class ReducedModel:
         full, part = [], []
         for name in active:
             eff = fx.LIBRARY[name]
+            if eff.kind == "inertia":      # no torque: the model adds it to its inertia (bind_inertia)
+                continue
             first = np.asarray(P[f"{name}.{eff.params[0].name}"])
             rows = np.nonzero(first != 0.0)[0]
             sl = None
@@ -96,6 +98,18 @@ class ReducedModel:
                 tau[sl] += law(q[sl], v[sl], **kw)
             return tau
         return add
+
+
+    def bind_inertia(self, P: dict, active: list):
+        """The inertia (kg m^2) the active inertia effects add to the coordinate's, one value per
+        batch row (zero where inactive), or None when none is active: the model's inertia M
+        becomes M + this (roboball.physics.effects.added_inertia)."""
+        names = [name for name in active if fx.LIBRARY[name].kind == "inertia"]
+        if not names:
+            return None
+        values = {name: {p: np.asarray(P[f"{name}.{p}"], dtype=float) for p in fx.LIBRARY[name].param_names}
+                  for name in names}
+        return np.asarray(fx.total_inertia(values), dtype=float)
 
 
 def active_effects(P: dict, names) -> list:
