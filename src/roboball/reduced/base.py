@@ -24,6 +24,7 @@ from roboball.physics import effects as fx
 from roboball.physics.mathns import NP
 
 DT = 2e-3          # s: the models' fixed step (roboball.reduced.integrate, explicit midpoint)
+SPARSE_SHARE = 0.5  # an effect active on at most this share of a batch is evaluated on those rows only
 
 
 @dataclass
@@ -67,9 +68,12 @@ class ReducedModel:
         """A function add(q, v, tau) that adds the active effects' torques to `tau` in place
         (and returns it), with the parameters bound.
 
-        Each effect is evaluated only on the rows where it is active when those rows form one
-        contiguous block (the diagnosis orders its batches by candidate, so a candidate screened
-        alone occupies one block); otherwise on the whole batch (zero magnitude -> zero torque).
+        Each effect is evaluated only on the rows where it is active: a slice when those rows
+        form one contiguous block (the diagnosis orders its batches by candidate, so a candidate
+        screened alone occupies one block), else their indices when they are at most
+        `SPARSE_SHARE` of the batch (a search that grows several models at once scatters each
+        effect over the batch), else the whole batch (zero magnitude -> zero torque).  Every row
+        gets the same value either way.
         """
         full, part = [], []
         for name in active:
@@ -81,6 +85,8 @@ class ReducedModel:
             sl = None
             if rows.size and rows[-1] - rows[0] + 1 == rows.size and rows.size < first.size:
                 sl = slice(int(rows[0]), int(rows[-1]) + 1)
+            elif rows.size and rows.size <= SPARSE_SHARE * first.size:
+                sl = rows
             kw = {p: np.asarray(P[f"{name}.{p}"], dtype=float)[sl if sl is not None else slice(None)]
                   for p in eff.param_names}
             for key in eff.context:
