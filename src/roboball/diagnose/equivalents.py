@@ -5,7 +5,9 @@ For the chosen model F and each of its effects e, every unchosen candidate u is 
 (F - e + u, fitted from grid starts like any grown model, or taken from the search's fits).  An
 alternative of e is a u that
 - passes the keep rule against F - e, as e does (it explains that residual by itself: BIC,
-  held-out gain, materiality, interval), and
+  held-out gain, materiality, interval), and, if it becomes a simpler entry at a parameter's
+  zero, against the model with that entry in its place (backlash of no free play is no
+  alternative to a stiffness), and
 - predicts held-out data about as well as F: held-out RMS within `Settings.equivalent_tol` (10%)
   of F's.  The keep rule asks an effect to lower the held-out RMS by 5%; between two fits of one
   model from different starts the held-out RMS already scatters by that much (the real steer
@@ -95,8 +97,8 @@ def _alternatives(sel, final: Scored, close: list, base: Scored) -> dict:
         if alt.key - {u} != final.key - {e} or not math.isfinite(alt.cv_rmse) or alt.cv_rmse > tol * final.cv_rmse:
             continue
         ref = sel.fits[final.key - {e}]
-        _, _, fails = sel.check(alt, u, ref, base)
-        if fails:
+        sel.validate([alt], only=u)
+        if any(fails for _, _, fails in sel.checks(alt, base, only=u)):
             continue
         ci = sel.ci95(alt)
         names = fx.LIBRARY[u].param_names

@@ -223,32 +223,50 @@ class Selector(KeepRule, CrossValidation):
         self.validate(rest)
         return [(sc, self.checks(sc, base) if sc in rest else checks) for sc, checks in out]
 
-    def validate(self, models: list, references: bool = True) -> None:
+    def validate(self, models: list, references: bool = True, only: str | None = None) -> None:
         """Cross-validate `models` (refitting them to convergence) and, with `references`, every
-        model that lacks one of their effects, where not done yet (those never fitted start from
-        the model's values without the effect)."""
-        refs = {}
-        for sc in (models if references else []):
-            for e in sc.effects:
-                key = sc.key - {e}
-                if key in self.fits or key in refs:
-                    continue
-                rest = tuple(x for x in sc.effects if x != e)
-                v = {k: x for k, x in sc.values.items() if not k.startswith(e + ".")}
-                refs[key] = Scored(effects=rest, full=self.full_problem(rest, v))
-        for r in refs.values():
-            self.fits[r.key] = r
-        others = [self.fits[sc.key - {e}] for sc in models for e in sc.effects] if references else []
+        model each of their effects (or only effect `only`) is judged against (`references`),
+        where not done yet (those never fitted start from the model's own values, the effect left
+        out or simplified)."""
+        targets = [(e, key, effects, values) for sc in (models if references else [])
+                   for e, key, effects, values in self.references(sc) if only is None or e == only]
+        for _, key, effects, values in targets:
+            if key not in self.fits:
+                self.fits[key] = Scored(effects=effects, full=self.full_problem(effects, values))
+        others = [self.fits[key] for _, key, _, _ in targets]
         need = list({id(x): x for x in list(models) + others if math.isnan(x.cv_rmse)}.values())
         self.cross_validate(need, cofit=True)
         for x in need:
             self.score(x, self.fits.get(frozenset(x.parent)) if x.parent is not None else None)
 
-    def checks(self, sc: Scored, base: Scored) -> list:
-        """The keep rule for every effect of `sc` against the model without it (the newest effect
-        first): [(effect, that model, failures)]; `sc` is kept only if every failure list is empty."""
+    def references(self, sc: Scored) -> list:
+        """What each effect of `sc` is judged against, the newest effect first: [(effect, key,
+        effects, starting values)] of the same model without the effect, and, for an effect that
+        becomes a simpler vocabulary entry at a parameter's zero (backlash with no free play is
+        linear stiffness), of the model with the simpler entry in its place: its extra parameter
+        must earn its keep by the same rule (a search that grows both sets would otherwise
+        choose between them by BIC alone)."""
+        out = []
+        for e in reversed(sc.effects):
+            rest = tuple(x for x in sc.effects if x != e)
+            v = {k: x for k, x in sc.values.items() if not k.startswith(e + ".")}
+            out.append((e, frozenset(rest), rest, v))
+            eff = fx.LIBRARY[e]
+            for _, simpler in eff.reduces_to:
+                if simpler in sc.effects:
+                    continue
+                plain = rest + (simpler,)
+                first = fx.LIBRARY[simpler].params[0].name
+                out.append((e, frozenset(plain), plain, {**v, f"{simpler}.{first}": sc.values[f"{e}.{eff.params[0].name}"]}))
+        return out
+
+    def checks(self, sc: Scored, base: Scored, only: str | None = None) -> list:
+        """The keep rule for every effect of `sc` (or only effect `only`) against each model it is
+        judged against (`references`): [(effect, that model, failures)]; `sc` is kept only if
+        every failure list is empty."""
         ci = self.ci95(sc)
-        return [self.check(sc, e, self.fits[sc.key - {e}], base, ci) for e in reversed(sc.effects)]
+        return [self.check(sc, e, self.fits[key], base, ci) for e, key, _, _ in self.references(sc)
+                if only is None or e == only]
 
     def check(self, sc: Scored, e: str, ref: Scored, base: Scored, ci: dict | None = None) -> tuple:
         """(e, ref, the keep rule's failures of effect `e` of `sc` against `ref`, `sc` without it)."""
@@ -296,7 +314,8 @@ class Selector(KeepRule, CrossValidation):
         if chosen:
             self.validate([final])
             for e, ref, _ in self.checks(final, base):
-                drop[e] = final.reordered(e).bic - bic_on(ref, final)
+                if ref.key == final.key - {e}:
+                    drop[e] = final.reordered(e).bic - bic_on(ref, final)
             self.score(final, base)
         ci = self.ci95(final) if chosen else {}
         verdict = self.verdict(base, final, chosen)
@@ -327,7 +346,11 @@ def _decision(sel: Selector, sc: Scored, parent: Scored, checks: list) -> dict:
             if name not in failed:
                 failed.append(name)
         if fails and reason.startswith("every"):
-            reason = fails[0][1] if e == newest else f"{e} is not needed beside the others: {fails[0][1]}"
+            if ref.key == sc.key - {e}:
+                reason = fails[0][1] if e == newest else f"{e} is not needed beside the others: {fails[0][1]}"
+            else:
+                simpler = "+".join(sorted(ref.key - sc.key))
+                reason = f"{e} does not earn its keep against {simpler}: {fails[0][1]}"
     return dict(qualifies=not failed, reason=reason, failed=failed, heldout_gain=sel.heldout_gain(sc, parent),
                 ci95={k: list(ci[k]) for k in effect_keys((newest,))})
 
