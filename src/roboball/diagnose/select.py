@@ -145,7 +145,7 @@ class Selector(KeepRule, CrossValidation):
         best, beam, steps = base, [base], []
         for _ in range(self.s.max_effects):
             parents = [p for p in beam if not self.white(p)]
-            children = self.grow(parents) if parents else []
+            children = self.grow(parents, prefer=best) if parents else []
             if not children:
                 break
             judged = self._judge(children, best, base)
@@ -162,10 +162,12 @@ class Selector(KeepRule, CrossValidation):
             beam = self._next_beam(children, best)
         return best, steps
 
-    def grow(self, parents: list, only: dict | None = None) -> list:
+    def grow(self, parents: list, only: dict | None = None, prefer: Scored | None = None) -> list:
         """Every parent grown by each candidate it lacks (or, with `only`, parent key -> the
         candidates to add), screened from grid starts; the better fit per set, scored against its
-        parent and remembered.  Returns the grown models, lowest BIC first."""
+        parent and remembered.  A set that `prefer` (the best model kept so far) grows into is
+        named as grown from it, whichever parent gave the fit: the report and `immaterial` read
+        the effects that extend the kept model.  Returns the grown models, lowest BIC first."""
         pairs = [(p, c) for p in parents for c in (only[p.key] if only else self.model.candidates)
                  if c not in p.effects]
         if not pairs:
@@ -173,11 +175,17 @@ class Selector(KeepRule, CrossValidation):
         probs = self._screen(pairs)
         grown = {}
         for (parent, _), prob in zip(pairs, probs):
-            sc = Scored(effects=prob.effects, full=prob, parent=parent.effects)
+            if sc_better(prob, grown.get(frozenset(prob.effects))):
+                grown[frozenset(prob.effects)] = (parent, prob)
+        out = []
+        for key, (parent, prob) in grown.items():
+            if prefer is not None and prefer.key < key and len(key - prefer.key) == 1:
+                parent = prefer
+            effects = tuple(parent.effects) + tuple(key - parent.key)
+            sc = Scored(effects=effects, full=prob, parent=parent.effects)
             self.score(sc, parent)
-            if sc.key not in grown or sc.full.rss < grown[sc.key].full.rss:
-                grown[sc.key] = sc
-        return sorted((self.remember(sc) for sc in grown.values()), key=lambda sc: sc.bic)
+            out.append(self.remember(sc))
+        return sorted(out, key=lambda sc: sc.bic)
 
     def _screen(self, pairs: list) -> list:
         """Each (parent, candidate) fitted for a few screening iterations from the best grid start
@@ -353,6 +361,11 @@ def _decision(sel: Selector, sc: Scored, parent: Scored, checks: list) -> dict:
                 reason = f"{e} does not earn its keep against {simpler}: {fails[0][1]}"
     return dict(qualifies=not failed, reason=reason, failed=failed, heldout_gain=sel.heldout_gain(sc, parent),
                 ci95={k: list(ci[k]) for k in effect_keys((newest,))})
+
+
+def sc_better(prob: Problem, old) -> bool:
+    """Whether the fit `prob` beats `old` ((parent, problem) or None) on RSS."""
+    return old is None or prob.rss < old[1].rss
 
 
 def mark_kept(steps: list, final: Scored) -> None:
