@@ -73,7 +73,9 @@ class ReducedModel:
         screened alone occupies one block), else their indices when they are at most
         `SPARSE_SHARE` of the batch (a search that grows several models at once scatters each
         effect over the batch), else the whole batch (zero magnitude -> zero torque).  Every row
-        gets the same value either way.
+        gets the same value either way, to the last bit that NumPy's vectorised exp and tanh may
+        round differently by an element's place in the array (a stiff stiction row's trajectory
+        then moves by up to 1e-6 rad).
         """
         full, part = [], []
         for name in active:
