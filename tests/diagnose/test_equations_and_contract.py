@@ -98,6 +98,11 @@ def _diagnosis(kind="steer_stand", unit="rad", chosen=("coulomb_friction", "visc
     steps = [[{"effect": "coulomb_friction", "delta_bic": -812.0, "kept": True},
               {"effect": "stiction", "delta_bic": -300.0, "kept": False}],
              [{"effect": "viscous_damping", "delta_bic": -40.0, "kept": True}]]
+    # the BIC the final model loses without each effect, and an equivalent explanation of one
+    drop_bic = {"coulomb_friction": -812.0, "viscous_damping": -40.0}
+    alternatives = {"viscous_damping": [{"effect": "quadratic_drag", "parameters": {"c2": 0.02},
+                                         "ci95": {"c2": (0.01, 0.03)}, "rmse_heldout": 0.0145,
+                                         "rmse": 0.0125, "delta_bic": -38.0}]}
     return SimpleNamespace(
         prep=SimpleNamespace(kind=kind, unit=unit, windows=windows),
         model=SimpleNamespace(dof="steer", description="rigid pendulum",
@@ -105,7 +110,8 @@ def _diagnosis(kind="steer_stand", unit="rad", chosen=("coulomb_friction", "visc
         baseline=SimpleNamespace(values=base_values, rmse=0.084, cv_rmse=0.091),
         final=SimpleNamespace(values=final_values, rmse=0.012, cv_rmse=0.014, delta_bic=-852.0),
         chosen=list(chosen), steps=steps, verdict=verdict,
-        ci95={"coulomb_friction.tau_c": (0.45, 0.51), "viscous_damping.c": (0.02, 0.04)})
+        ci95={"coulomb_friction.tau_c": (0.45, 0.51), "viscous_damping.c": (0.02, 0.04)},
+        drop_bic=drop_bic, alternatives=alternatives if "viscous_damping" in chosen else {})
 
 
 def _located():
@@ -119,7 +125,7 @@ def test_fit_gives_fitted_and_heldout_rms_before_and_after_in_the_signals_units(
                          "rmse_heldout_after": 0.014, "units": "rad/s"}
 
 
-def test_each_effect_has_the_delta_bic_of_the_round_that_kept_it_and_its_95_interval():
+def test_each_effect_has_the_delta_bic_of_leaving_it_out_and_its_95_interval():
     js = diagnosis_json(_diagnosis(), _located())
     mp = {m["effect"]: m for m in js["missing_physics"]}
     assert [m["effect"] for m in js["missing_physics"]] == ["coulomb_friction", "viscous_damping"]
@@ -129,6 +135,21 @@ def test_each_effect_has_the_delta_bic_of_the_round_that_kept_it_and_its_95_inte
     assert mp["viscous_damping"]["ci95"] == {"c": [0.02, 0.04]}
     assert all(m["dof"] == "steer" for m in js["missing_physics"])
     assert js["located"][0]["share_of_residual"] == 0.6235
+
+
+def test_equivalent_explanations_are_listed_with_parameters_heldout_rms_and_mechanism():
+    """The contract's `alternatives`: another effect that explains the same residual about as well,
+    with its parameters, 95% intervals and held-out RMS; each entry and alternative names the
+    physical mechanism it stands for."""
+    js = diagnosis_json(_diagnosis(), _located())
+    mp = {m["effect"]: m for m in js["missing_physics"]}
+    assert "alternatives" not in mp["coulomb_friction"]
+    (alt,) = mp["viscous_damping"]["alternatives"]
+    assert alt == {"effect": "quadratic_drag", "parameters": {"c2": 0.02}, "ci95": {"c2": [0.01, 0.03]},
+                   "rmse_heldout": 0.0145, "delta_bic": -38.0,
+                   "mechanism": fx.LIBRARY["quadratic_drag"].mechanism_for({"c2": 0.02})}
+    assert mp["coulomb_friction"]["mechanism"].startswith("dry (Coulomb) friction")
+    assert "speed" in mp["viscous_damping"]["mechanism"] and "square of speed" in alt["mechanism"]
 
 
 def test_signatures_read_as_the_ramps_on_the_ramp_and_as_the_librarys_elsewhere():

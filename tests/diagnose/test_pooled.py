@@ -220,7 +220,7 @@ def test_the_hidden_pair_is_named_and_a_drag_below_materiality_is_reported_with_
     assert "at least 4 noise variances (materiality)" in report
     assert "of the averaged trend the fit compares" in report
     assert "A ramp window starts at the release" in report and "first turning point" not in report
-    assert "| quadratic_drag |" in report.split("Round 3:")[1] and "below 4 |" in report.split("Round 3:")[1]
+    assert "**quadratic_drag** |" in report.split("Round 3:")[1] and "below 4 |" in report.split("Round 3:")[1]
     assert _immaterial(out / "details.json").startswith("quadratic_drag (c2 = ")
     assert _immaterial(tmp_path / "absent" / "details.json") == ""
 
@@ -228,10 +228,17 @@ def test_the_hidden_pair_is_named_and_a_drag_below_materiality_is_reported_with_
 def test_immaterial_lists_only_the_stopping_rounds_candidates_refused_for_materiality_alone():
     from roboball.diagnose.keep import immaterial
 
-    kept = {"effect": "viscous_damping", "kept": True, "failed": []}
-    small = {"effect": "rolling_resistance", "kept": False, "failed": ["material"]}
-    unsure = {"effect": "quadratic_drag", "kept": False, "failed": ["material", "itself"]}
-    screened = {"effect": "linear_stiffness", "kept": False, "failed": ["screened"]}
+    def grown(effect, parent, failed, kept=False):
+        return {"effect": effect, "set": sorted([*parent, effect]), "parent": sorted(parent), "kept": kept,
+                "failed": failed}
+
+    kept = grown("viscous_damping", [], [], kept=True)
+    small = grown("rolling_resistance", ["viscous_damping"], ["material"])
+    unsure = grown("quadratic_drag", ["viscous_damping"], ["material", "itself"])
+    screened = grown("linear_stiffness", ["viscous_damping"], ["screened"])
+    beside = grown("rolling_resistance", [], ["material"])          # grown from the baseline, not the final model
+    other = grown("quadratic_drag", ["rolling_resistance"], ["material"])   # grown from another model of the beam
     assert immaterial([]) == []
-    assert immaterial([[kept, small]]) == []                      # the selection went on: small was beaten
-    assert immaterial([[kept], [small, unsure, screened]]) == [small]
+    assert immaterial([[kept, beside]]) == []                     # the final model was not grown any further
+    assert immaterial([[kept, beside], [small, unsure, screened, other]]) == [small]
+    assert immaterial([[kept, beside]], final=[]) == [beside]     # extensions of the model given as final

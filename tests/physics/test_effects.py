@@ -10,10 +10,11 @@ from roboball.physics import effects as fx
 from roboball.sim.forces import SYM
 
 VOCABULARY = ("viscous_damping", "coulomb_friction", "stiction", "quadratic_drag", "linear_stiffness",
-              "cubic_stiffness", "com_offset", "backlash", "rolling_resistance")
+              "cubic_stiffness", "com_offset", "backlash", "rolling_resistance", "added_inertia")
 PARAMS = {"viscous_damping": {"c": 0.3}, "coulomb_friction": {"tau_c": 0.45}, "stiction": {"tau_s": 0.2},
           "quadratic_drag": {"c2": 0.1}, "linear_stiffness": {"k": -2.0}, "cubic_stiffness": {"k3": 5.0},
-          "com_offset": {"delta": 0.03}, "backlash": {"k_b": 6.0, "b": 0.2}, "rolling_resistance": {"tau_rr": 1.2}}
+          "com_offset": {"delta": 0.03}, "backlash": {"k_b": 6.0, "b": 0.2}, "rolling_resistance": {"tau_rr": 1.2},
+          "added_inertia": {"delta_i": 0.06}}
 CONTEXT = {"k_g": 20.54}
 
 
@@ -106,6 +107,28 @@ def test_numpy_and_drake_symbolic_give_the_same_torque(name):
         want = float(fx.torque(name, np.array([qv]), np.array([qdv]), PARAMS[name], CONTEXT)[0])
         got = expr.Evaluate({q: qv, qd: qdv}) if hasattr(expr, "Evaluate") else float(expr)
         assert got == pytest.approx(want, rel=1e-12, abs=1e-12), (name, qv, qdv)
+
+
+def test_added_inertia_adds_to_the_inertia_and_no_torque():
+    """added_inertia is M -> M + delta_i: total_inertia sums it, total_torque leaves it out, and
+    it stands for a geared joint's reflected rotor inertia in the report."""
+    eff = fx.LIBRARY["added_inertia"]
+    assert eff.kind == "inertia" and eff.param_names == ("delta_i",) and eff.units() == {"delta_i": "kg m^2"}
+    assert eff.params[0].lo == 0.0          # harder to accelerate, never easier
+    q, qd = np.array([0.3, -0.2]), np.array([1.0, -2.0])
+    both = {"added_inertia": {"delta_i": 0.06}, "linear_stiffness": {"k": 2.0}}
+    assert np.allclose(fx.total_torque(both, q, qd), -2.0 * q)
+    assert np.allclose(fx.total_inertia(both, q, qd), 0.06)
+    assert fx.total_inertia({"linear_stiffness": {"k": 2.0}}) == 0.0
+    assert "rotor inertia" in eff.mechanism_for({"delta_i": 0.06}) and "N^2" in eff.mechanism_for({"delta_i": 0.06})
+
+
+def test_every_effect_names_its_physical_mechanism_by_sign():
+    for name, eff in fx.LIBRARY.items():
+        assert eff.mechanism_for({eff.params[0].name: 1.0}), name
+        assert eff.mechanism_for({eff.params[0].name: -1.0}) or not eff.params[0].signed, name
+    stiff = fx.LIBRARY["linear_stiffness"]
+    assert "softer" in stiff.mechanism_for({"k": -1.7}) and "softer" not in stiff.mechanism_for({"k": 1.7})
 
 
 def test_total_torque_sums_effects_and_unknown_names_are_refused():

@@ -56,6 +56,37 @@ def test_drive_stand_with_dry_friction_and_com_offset_matches_drake():
     assert abs(yd[-1] - rest) > 0.01                       # it stops off rest: the effects act
 
 
+@pytest.mark.parametrize("kind, joint, q0", [("steer_stand", "steer", -0.9), ("drive_stand", "drive", 0.8)])
+def test_added_inertia_is_the_joint_actuators_reflected_rotor_inertia_in_drake(kind, joint, q0):
+    """added_inertia is M -> M + delta_i in the reduced model and, in Drake, a joint actuator with
+    the facts' gear ratio (15 steer, 33 drive) and rotor inertia delta_i / N^2 (Drake's reflected
+    inertia J N^2): the two agree within 3 mrad over 6 s with Coulomb friction, and the inertia
+    slows the swing (the period grows by sqrt(1 + delta_i / I))."""
+    from roboball.diagnose.drake import drake_spec
+
+    model = model_for(kind)
+    effects = {"coulomb_friction": {"tau_c": 0.3}, "added_inertia": {"delta_i": 0.12}}
+    t, yr = _reduced(model, q0, {"viscous_c": 0.1, **_flat(effects)}, 6.0)
+    prep = type("Prep", (), {"kind": kind})()
+    spec = drake_spec(prep, model, {"viscous_c": 0.1, **_flat(effects)}, list(effects), dt=2.5e-4)
+    assert spec.reflected_inertia == {joint: pytest.approx(0.12)}
+    assert [term.name for term in spec.extra_terms] == ["diagnosed[coulomb_friction]"]
+    from roboball.sim.plant import build
+    actuator = build(spec).plant.GetJointActuatorByName(f"{joint}_motor")
+    ratio = {"steer": 15.0, "drive": 33.0}[joint]
+    assert actuator.default_gear_ratio() == ratio
+    assert actuator.default_rotor_inertia() == pytest.approx(0.12 / ratio ** 2, rel=1e-12)
+    assert actuator.default_reflected_inertia() == pytest.approx(0.12, rel=1e-12)
+    df = simulate(spec, q0, 6.0, sample_rate_hz=500)
+    yd = df[model.signal].to_numpy()
+    assert np.max(np.abs(np.interp(df.time_s.to_numpy(), t, yr) - yd)) < 3e-3
+    # without the inertia, the first swing's turning point comes sooner by the period ratio
+    t0, y0 = _reduced(model, q0, {"viscous_c": 0.1, **_flat({"coulomb_friction": {"tau_c": 0.3}})}, 6.0)
+    first = lambda tt, yy: tt[1:-1][(np.diff(yy)[:-1] * np.diff(yy)[1:]) < 0][0]
+    ratio_t = first(t, yr) / first(t0, y0)
+    assert ratio_t == pytest.approx(np.sqrt(1 + 0.12 / model.inertia), rel=0.02)
+
+
 def test_steer_stand_with_stiction_matches_drake_and_holds_off_rest():
     """The breakaway torque holds the pendulum where kinetic friction alone would let it slide
     on: the reduced model and Drake agree within 3 mrad over 8 s, both come to rest, and with

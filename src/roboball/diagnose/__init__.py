@@ -6,11 +6,13 @@ the baseline leaves out, model it, and show the fit improve (issue 6; contract
     d, js = diagnose("raw_data/steer_stand/steer_stand_r1.csv", out_dir="results/diagnose/steer")
 
 Modules, in the order a diagnosis runs: data (fit windows of the releases; the fast batched
-reduced models are in roboball.reduced), fit (batched Levenberg-Marquardt by simulation error), scored (the selection's settings and scored models),
-keep (the keep rule: BIC, held-out error, materiality, 95% intervals), select (greedy forward
-selection with backward and swap passes, and the verdict), locate (residual by time window and
-regime), drake (the augmented model as a Drake force element), report (writes the outputs:
-contract for diagnosis.json, markdown for report.md, figures for the PNGs).  The command is
+reduced models are in roboball.reduced), fit (batched Levenberg-Marquardt by simulation error),
+scored (the selection's settings and scored models), crossval (held-out errors), keep (the keep
+rule: BIC, held-out error, materiality, 95% intervals), select (beam search over small sets of
+effects, each effect judged against the set without it, and the verdict), equivalents (swaps
+and the equivalent explanations of the chosen effects), locate (residual by time window and
+regime), drake (the augmented model as a Drake force element and joint rotor inertia), report
+(writes the outputs: contract for diagnosis.json, markdown for report.md, figures for the PNGs).  The command is
 roboball.cli.diagnose; the effect library itself is roboball.physics.effects.
 """
 from __future__ import annotations

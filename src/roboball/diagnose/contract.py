@@ -41,20 +41,33 @@ RAMP_EXPLAINS = {
 
 
 def missing_physics(d: Diagnosis) -> list:
+    """One entry per effect of the final model: parameters with 95% intervals, the BIC the model
+    loses without it, its signature and the mechanism it stands for, and the equivalent
+    explanations the data cannot tell from it (`alternatives`, roboball.diagnose.equivalents)."""
     out = []
-    dbic = {}
-    for step in d.steps:
-        for info in step:
-            if info.get("kept"):
-                dbic[info["effect"]] = info["delta_bic"]
     for e in d.chosen:
         eff = fx.LIBRARY[e]
         params = {p: _round(d.final.values[f"{e}.{p}"]) for p in eff.param_names}
         ci = {p: [_round(d.ci95[f"{e}.{p}"][0]), _round(d.ci95[f"{e}.{p}"][1])] for p in eff.param_names}
-        out.append({"effect": e, "dof": d.model.dof, "parameters": params, "ci95": ci,
-                    "delta_bic": _round(dbic.get(e, d.final.delta_bic), 5),
-                    "explains": RAMP_EXPLAINS.get(e, eff.explains) if d.prep.kind == "ramp" else eff.explains})
+        entry = {"effect": e, "dof": d.model.dof, "parameters": params, "ci95": ci,
+                 "delta_bic": _round(d.drop_bic.get(e, d.final.delta_bic), 5),
+                 "explains": RAMP_EXPLAINS.get(e, eff.explains) if d.prep.kind == "ramp" else eff.explains,
+                 "mechanism": eff.mechanism_for(params)}
+        alts = d.alternatives.get(e)
+        if alts:
+            entry["alternatives"] = [_alternative(a) for a in alts]
+        out.append(entry)
     return out
+
+
+def _alternative(a: dict) -> dict:
+    """An equivalent explanation as diagnosis.json gives it."""
+    eff = fx.LIBRARY[a["effect"]]
+    params = {p: _round(v) for p, v in a["parameters"].items()}
+    return {"effect": a["effect"], "parameters": params,
+            "ci95": {p: [_round(lo), _round(hi)] for p, (lo, hi) in a["ci95"].items()},
+            "rmse_heldout": _round(a["rmse_heldout"]), "delta_bic": _round(a["delta_bic"], 5),
+            "mechanism": eff.mechanism_for(params)}
 
 
 def diagnosis_json(d: Diagnosis, located_base, drake_before=None, drake_after=None) -> dict:

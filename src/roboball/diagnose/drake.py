@@ -15,6 +15,12 @@ Where each experiment's coordinate lives in the plant:
   driveshaft axis (R[:,1] T on the base's angular velocity, -T on the drive joint), the same
   construction as the injected shell's drive damping.
 
+An inertia effect (`added_inertia`) is no force: on a stand it is the joint actuator's rotor
+inertia (`SimSpec.reflected_inertia`: a JointActuator with the facts' gear ratio N and rotor
+inertia delta_i / N^2, which Drake adds to the joint's diagonal of the mass matrix as J N^2).
+The shell's roll and the ramp's drive rate are no joint with a motor (the roll is the floating
+base's), and the diagnosis offers no inertia effect there.
+
 `simulate_windows` releases the Drake model from every fitted release state of a recording and
 returns its prediction at the recording's own samples.
 """
@@ -42,7 +48,9 @@ def effect_values(effects, values: dict) -> dict:
 
 
 def effect_term(model: ReducedModel, effects: dict) -> GeneralizedTerm | None:
-    """A Drake force term applying `effects` ({name: params}) on the experiment's coordinate."""
+    """A Drake force term applying `effects` ({name: params}) on the experiment's coordinate
+    (None when none of them is a force: inertia effects are the plant's, see `drake_spec`)."""
+    effects = {name: p for name, p in effects.items() if fx.LIBRARY[name].kind != "inertia"}
     if not effects:
         return None
     kind, rest, context = model.kind, model.rest, dict(model.context)
@@ -75,12 +83,17 @@ def drake_spec(prep: Prepared, model: ReducedModel, values: dict, effects, dt: f
     """The Drake scenario of the baseline (effects=()) or the augmented model."""
     kind = prep.kind
     dt = dt or DRAKE_DT[kind]
-    term = effect_term(model, effect_values(effects, values))
+    chosen = effect_values(effects, values)
+    term = effect_term(model, chosen)
     extra = [term] if term is not None else []
+    added = float(fx.total_inertia(chosen))
     if kind in ("steer_stand", "drive_stand"):
         joint = "steer" if kind == "steer_stand" else "drive"
         return SimSpec(kind=kind, contact="point", friction={joint: "viscous"},
-                       friction_params={joint: {"c": float(values["viscous_c"])}}, dt=dt, extra_terms=extra)
+                       friction_params={joint: {"c": float(values["viscous_c"])}}, dt=dt, extra_terms=extra,
+                       reflected_inertia={joint: added} if added else {})
+    if added:
+        raise ValueError(f"no added inertia on the {kind} coordinate in Drake (no joint actuator there)")
     if kind == "shell_rock":
         return SimSpec(kind=kind, contact="point", friction={"steer": "none", "drive": "none"}, dt=dt,
                        pressure_kpa=prep.recording.pressure_kpa, extra_terms=extra)

@@ -18,6 +18,7 @@ the parameters' physical bounds (roboball.physics.effects).
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -31,6 +32,8 @@ from roboball.reduced.integrate import hermite
 Q0_BOUND = 0.1        # rad: release value may move this far from the hold level
 FD_REL = 0.01         # forward-difference step, in units of the parameter's typical size
 DIVERGED = 1e3        # value given to a simulation that blew up
+SPLIT_MIN = 2000      # batches at least this large are simulated window by window (Engine.predict)
+PROJECT_PASSES = 3    # solves per step that hold parameters at the bounds their step would leave
 
 
 def effect_keys(effects) -> list:
@@ -117,22 +120,41 @@ class Engine:
                 for k in self._release_state(w)]
 
     # ---- batched prediction ----------------------------------------------------------------
-    def predict(self, items):
+    def predict(self, items, dt: float | None = None):
         """items: list of (values, window index).  Returns a list of (y, ydot) at the window's
-        samples for each item, from one batched simulation."""
+        samples for each item, from one batched simulation (with step `dt`, default the fits').
+
+        A batch of at least `SPLIT_MIN` items is simulated window by window, each for its own
+        window's duration rather than the longest one's: rows are independent, so every row's
+        numbers are the same (to the last bit of NumPy's vectorised exp and tanh, which may round
+        by an element's place in the array), the grids of starts cost about a sixth less, and
+        smaller batches (a screening fit's ~800 rows) keep the one call: split, their per-step
+        Python cost would grow more than their arithmetic shrinks."""
         B = len(items)
         if B == 0:
             return []
+        dt = dt or self.dt
+        wins = np.fromiter((w for _, w in items), int, B)
+        groups = ([np.arange(B)] if B < SPLIT_MIN else [np.nonzero(wins == w)[0] for w in np.unique(wins)])
+        out = [None] * B
+        for rows in groups:
+            for b, result in zip(rows, self._simulate([items[r] for r in rows], dt)):
+                out[b] = result
+        self.n_calls += 1
+        return out
+
+    def _simulate(self, items, dt: float):
+        """(y, ydot) at each item's window samples from one batched simulation of `items`."""
+        B = len(items)
         P = {k: np.fromiter((v.get(k, 0.0) for v, _ in items), float, B) for k in self.p_keys}
         q0 = np.fromiter((v.get(f"q0@{w}", self.windows[w].q0) for v, w in items), float, B)
         ts = np.fromiter((v.get(f"ts@{w}", 0.0) for v, w in items), float, B)
         lag = np.fromiter((lag_of(v) for v, _ in items), float, B) if self.sensor else None
         horizon = max(self.windows[w].duration for _, w in items) + self.max_shift + 0.05
-        n_steps = int(math.ceil(horizon / self.dt)) + 1
-        import time as _time
-        t0 = _time.process_time()
+        n_steps = int(math.ceil(horizon / dt)) + 1
+        t0 = time.process_time()
         with np.errstate(all="ignore"):
-            Y, Yd = self.model.simulate(q0, P, n_steps, self.dt)
+            Y, Yd = self.model.simulate(q0, P, n_steps, dt)
         # A diverging candidate (e.g. a strongly softening stiffness) gets a huge but finite
         # residual, so the fit rejects it instead of propagating NaN.
         bad = ~np.isfinite(Y)
@@ -142,18 +164,17 @@ class Engine:
         Yd[~np.isfinite(Yd)] = 0.0
         if lag is not None:             # as the lagging sensor reports it (roboball.diagnose.sensor)
             swinging = np.fromiter((self.windows[w].start == "turning point" for _, w in items), bool, B)
-            Y, Yd = lag_grid(Y, Yd, self.dt, lag, swinging)
-        self.sim_time += _time.process_time() - t0
+            Y, Yd = lag_grid(Y, Yd, dt, lag, swinging)
+        self.sim_time += time.process_time() - t0
         self.n_sims += B
-        self.n_calls += 1
         out = [None] * B
         wins = np.fromiter((w for _, w in items), int, B)
         for w in np.unique(wins):
             cols = np.nonzero(wins == w)[0]
             win = self.windows[int(w)]
             tau = (win.t - win.t0)[None, :] - ts[cols][:, None]
-            y = hermite(Y, Yd, self.dt, tau, cols)
-            x = np.clip(tau / self.dt, 0.0, n_steps - 1e-9)
+            y = hermite(Y, Yd, dt, tau, cols)
+            x = np.clip(tau / dt, 0.0, n_steps - 1e-9)
             i = np.floor(x).astype(int)
             s = x - i
             c = cols[:, None]
@@ -275,23 +296,45 @@ class Engine:
 
     def _lm_trial(self, p: Problem, st: dict) -> dict:
         """The damped Gauss-Newton step of `p` from its current values (state `st`: residual r,
-        damping lam), in units of the parameters' typical sizes and clipped to their bounds."""
+        damping lam), in units of the parameters' typical sizes, projected on the bounds.
+
+        A parameter at a bound whose step would leave it is held there and the step is solved
+        for the others (at most `PROJECT_PASSES` times): a step clipped after the solve is no
+        descent direction for the rest, is rejected, and after `max_rejects` of them the fit
+        stops short of the optimum (a release instant at its bound held the real shell log's
+        damping + stiffness + offset fit at an RMS of 0.035 rad instead of 0.030)."""
         scale = np.array([self.info[k][0] for k in p.free])
+        lo = np.array([self.info[k][1] for k in p.free])
+        hi = np.array([self.info[k][2] for k in p.free])
+        x = np.array([p.values[k] for k in p.free], dtype=float)
         Js = p.J * scale
         A = Js.T @ Js
         g = Js.T @ st["r"]
         d = np.maximum(np.diag(A), 1e-12 * max(np.max(np.diag(A)), 1e-300))
-        try:
-            du = np.linalg.solve(A + st["lam"] * np.diag(d), -g)
-        except np.linalg.LinAlgError:
-            du = -g / (d * (1 + st["lam"]))
-        if not np.all(np.isfinite(du)):
-            du = np.zeros_like(du)
+        free = np.ones(len(x), bool)
+        for _ in range(PROJECT_PASSES):
+            du = self._damped_step(A, g, d, st["lam"], free)
+            held = free & (((x <= lo) & (du < 0)) | ((x >= hi) & (du > 0)))
+            if not held.any():
+                break
+            free &= ~held
         nv = dict(p.values)
         for j, k in enumerate(p.free):
-            _, lo, hi = self.info[k]
-            nv[k] = float(np.clip(p.values[k] + du[j] * scale[j], lo, hi))
+            nv[k] = float(np.clip(x[j] + du[j] * scale[j], lo[j], hi[j]))
         return nv
+
+    @staticmethod
+    def _damped_step(A, g, d, lam: float, free) -> np.ndarray:
+        """The Levenberg-Marquardt step (A + lam diag(d)) du = -g on the `free` parameters (0 elsewhere)."""
+        du = np.zeros(len(g))
+        idx = np.nonzero(free)[0]
+        try:
+            du[idx] = np.linalg.solve(A[np.ix_(idx, idx)] + lam * np.diag(d[idx]), -g[idx])
+        except np.linalg.LinAlgError:
+            du[idx] = -g[idx] / (d[idx] * (1 + lam))
+        if not np.all(np.isfinite(du)):
+            du = np.zeros_like(du)
+        return du
 
     def _lm_update(self, p: Problem, nv: dict, result, st: dict, rtol: float, max_rejects: int,
                    verbose: bool, it: int) -> bool:

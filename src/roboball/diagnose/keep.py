@@ -17,7 +17,9 @@ The best candidate of a round (lowest BIC) is kept only if
 95% intervals come from the Jacobian at the optimum, cov = s^2 (J^T J)^-1, inflated by
 n / n_eff with n_eff = n (1 - rho1) / (1 + rho1) for the residual's lag-1 autocorrelation rho1.
 
-Candidates that pass every test but materiality are `immaterial`: reported, not added.
+A model of several effects is kept only if every one of them passes these tests against the same
+model without it (roboball.diagnose.select).  Candidates that pass every test but materiality
+are `immaterial`: reported, not added.
 """
 from __future__ import annotations
 
@@ -31,14 +33,18 @@ from roboball.diagnose.scored import Scored
 from roboball.metrics import bic, lag1, n_eff
 
 
-def immaterial(steps: list) -> list:
-    """Candidates of the round where the selection stopped (`steps`: Diagnosis.steps, or the
-    "rounds" of details.json) that the data support (they lower the BIC and the held-out error,
-    and their intervals exclude zero) but that fall short of materiality alone: not added,
-    reported so the user can judge them."""
-    if not steps or any(i.get("kept") for i in steps[-1]):
-        return []
-    return [i for i in steps[-1] if i.get("failed") == ["material"]]
+def immaterial(steps: list, final=None) -> list:
+    """Grown models of the search (`steps`: Diagnosis.steps, or the "rounds" of details.json)
+    that add one effect to the final model (`final`: its effects; default: the largest model
+    marked kept) which the data support (it lowers the BIC and the held-out error, and its
+    interval excludes zero) but which falls short of materiality alone: not added, reported so
+    the user can judge it."""
+    if final is None:
+        kept = [set(i.get("set", ())) for step in steps for i in step if i.get("kept")]
+        final = max(kept, key=len) if kept else set()
+    final = set(final)
+    return [i for step in steps for i in step
+            if set(i.get("parent", ())) == final and i.get("failed") == ["material"]]
 
 
 def residuals(prep: Prepared, pred: dict) -> dict:

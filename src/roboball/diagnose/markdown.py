@@ -12,8 +12,8 @@ from roboball.diagnose.select import Diagnosis
 def report_md(d: Diagnosis, js: dict, located_base, located_final, figures, drake_stats) -> str:
     """The report's Markdown (`js`: diagnosis.json's content; `drake_stats`: the Drake RMS of the
     baseline and the augmented model, or Nones)."""
-    lines = (_header(d, js) + _located(located_base) + _missing(js) + _immaterial(d) + _fit(d, drake_stats)
-             + _selection(d) + _unexplained(d, located_base, located_final) + _footer(d))
+    lines = (_header(d, js) + _located(located_base) + _missing(js) + _equivalents(d, js) + _immaterial(d)
+             + _fit(d, drake_stats) + _selection(d) + _unexplained(d, located_base, located_final) + _footer(d))
     return "\n".join(lines)
 
 
@@ -109,17 +109,41 @@ def _located(located_base) -> list:
 
 
 def _missing(js: dict) -> list:
-    """The effects added, one row per parameter, with intervals, delta BIC and signature."""
+    """The effects added, one row per parameter, with intervals, delta BIC, signature and the
+    physical mechanism each stands for."""
     lines = ["## Missing physics", ""]
     if js["missing_physics"]:
         rows = []
         for m in js["missing_physics"]:
             for p, val in m["parameters"].items():
                 rows.append((m["effect"], m["dof"], *_param_cells(m["effect"], p, val, m["ci95"][p]),
-                             _fmt(m["delta_bic"], 5), m["explains"]))
-        lines.append(_md_table(rows, ["effect", "dof", "parameter", "95% interval", "delta BIC", "signature"]))
+                             _fmt(m["delta_bic"], 5), m["explains"], m["mechanism"]))
+        lines += [_md_table(rows, ["effect", "dof", "parameter", "95% interval", "delta BIC", "signature",
+                                   "what it stands for"]), "",
+                  "delta BIC: how much the BIC rises when the effect is left out of the final model."]
     else:
         lines.append("None: no effect of the vocabulary passed the keep rule (see Selection).")
+    return lines
+
+
+def _equivalents(d: Diagnosis, js: dict) -> list:
+    """The equivalent explanations of the chosen effects, with the mechanism each stands for
+    ([] when the data tell every chosen effect from the others)."""
+    entries = [m for m in js["missing_physics"] if m.get("alternatives")]
+    if not entries:
+        return []
+    tol = d.settings.equivalent_tol
+    lines = ["", "### Equivalent explanations", "",
+             f"The data cannot tell these apart: putting the alternative in the chosen effect's place keeps the "
+             f"held-out RMS within {tol:.0%} of the final model's ({_fmt(d.final.cv_rmse)} {d.prep.unit}), and the "
+             "alternative passes the keep rule against the model without the chosen effect. Read the chosen one "
+             "as one of these mechanisms, not as the only one.", ""]
+    rows = []
+    for m in entries:
+        rows.append((m["effect"], _assignments(m["parameters"]), _fmt(d.final.cv_rmse), m["mechanism"]))
+        for a in m["alternatives"]:
+            rows.append((f"or {a['effect']}", _assignments(a["parameters"]), _fmt(a["rmse_heldout"]), a["mechanism"]))
+    lines.append(_md_table(rows, ["effect", "parameters (SI)", f"held-out RMS ({d.prep.unit})", "what it stands for"]))
     return lines
 
 
@@ -155,20 +179,30 @@ def _fit(d: Diagnosis, drake_stats) -> list:
 
 
 def _selection(d: Diagnosis) -> list:
-    """The keep rule as applied, and every round's candidates with their decisions."""
-    lines = ["## Selection", "", "Each round adds every remaining candidate in turn and refits by simulation "
-             f"error; the best {d.settings.top_k} by fit are cross-validated. A candidate qualifies when it "
-             "lowers the BIC by "
-             f"more than {d.settings.bic_min:g}, lowers the held-out RMS by more than {d.settings.cv_gain:.0%}, "
-             f"lowers the held-out mean square by at least {d.settings.material_noise:g} noise variances "
-             "(materiality), and the 95% intervals of its magnitude (and of any parameter at whose zero it "
-             "would be a simpler effect) exclude zero; the qualifying candidate with the lowest BIC is kept.", ""]
+    """The search and the keep rule as applied, and every round's grown models with their decisions."""
+    s = d.settings
+    lines = ["## Selection", "", "Each round grows each of the best models so far (up to "
+             f"{s.beam_width} per size, the baseline first) by every candidate it lacks and refits by simulation "
+             f"error; the {s.top_k} grown models of lowest BIC that beat the best model kept so far are "
+             "cross-validated and judged effect by effect. A model is kept when every one of its effects, against "
+             f"the same model without it, lowers the BIC by more than {s.bic_min:g}, lowers the held-out RMS by more "
+             f"than {s.cv_gain:.0%}, lowers the held-out mean square by at least {s.material_noise:g} noise variances "
+             "(materiality), and has 95% intervals of its magnitude (and of any parameter at whose zero it would "
+             "be a simpler effect) that exclude zero; the kept model of lowest BIC is the diagnosis. A round that "
+             "keeps nothing ends the search. In the tables the new effect is in bold and delta BIC is against "
+             "the model it was grown from.", ""]
     for k, step in enumerate(d.steps, start=1):
-        rows = [(i["effect"], _fmt(i["rmse"]), _fmt(i["cv_rmse"]), _fmt(i["delta_bic"], 5),
-                 "kept" if i.get("kept") else ("qualifies, higher BIC" if i.get("qualifies") else i.get("reason", "")))
+        rows = [(_grown(i), _fmt(i["rmse"]), _fmt(i["cv_rmse"]), _fmt(i["delta_bic"], 5),
+                 "kept" if i.get("kept") else ("passes, higher BIC" if i.get("qualifies") else i.get("reason", "")))
                 for i in step]
-        lines += [f"Round {k}:", "", _md_table(rows, ["candidate", "RMS", "held-out RMS", "delta BIC", "decision"]), ""]
+        lines += [f"Round {k}:", "", _md_table(rows, ["model", "RMS", "held-out RMS", "delta BIC", "decision"]), ""]
     return lines
+
+
+def _grown(info: dict) -> str:
+    """"coulomb_friction + **linear_stiffness**": the parent's effects and the new one."""
+    parent = info.get("parent") or []
+    return " + ".join([*parent, f"**{info['effect']}**"])
 
 
 def _unexplained(d: Diagnosis, located_base, located_final) -> list:

@@ -19,7 +19,9 @@ class Settings:
     fit_iter: int = 15                # full fits
     fold_iter: int = 8                # cross-validation fits (warm-started from the full fit)
     state_iter: int = 6               # held-out release-state fits
-    top_k: int = 2
+    top_k: int = 2                    # children judged (cross-validated) per round of the search
+    beam_width: int = 4               # models of each size extended in the next round
+    equivalent_tol: float = 0.10      # an alternative's held-out RMS within 10% of the chosen model's
     bic_min: float = 10.0
     cv_gain: float = 0.05
     material_noise: float = 4.0       # an effect must lower the held-out mean square by >= 4 sigma^2
@@ -43,6 +45,12 @@ class Scored:
     rho1: float = math.nan
     bic: float = math.nan
     delta_bic: float = math.nan
+    parent: tuple | None = None                      # effects of the model it was grown from
+
+    @property
+    def key(self) -> frozenset:
+        """The set of effects (the order in which they were added does not matter)."""
+        return frozenset(self.effects)
 
     @property
     def rmse(self) -> float:
@@ -51,3 +59,10 @@ class Scored:
     @property
     def values(self) -> dict:
         return self.full.values
+
+    def reordered(self, last: str) -> "Scored":
+        """The same fitted model with `last` named as its most recent effect (the keep rule judges
+        a model's most recent effect)."""
+        return Scored(effects=tuple(e for e in self.effects if e != last) + (last,), full=self.full,
+                      cv_rmse=self.cv_rmse, cv_pred=self.cv_pred, rho1=self.rho1, bic=self.bic,
+                      delta_bic=self.delta_bic, parent=self.parent)

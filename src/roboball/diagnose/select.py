@@ -1,26 +1,32 @@
-"""Decide which physics the baseline leaves out: stepwise selection by simulation error.
+"""Decide which physics the baseline leaves out: a beam search over small sets of effects, by
+simulation error.
 
 1. Fit the baseline (its own parameters and every release state) to the whole recording and
    cross-validate it.
-2. Each round, every vocabulary effect that applies to the experiment and is not yet in the
-   model is added in turn and fitted with everything else by Levenberg-Marquardt on the
+2. Each round grows every model of the beam by one more vocabulary effect that applies to the
+   experiment, in turn, and fits it with everything else by Levenberg-Marquardt on the
    SIMULATION error over all releases (`roboball.diagnose.fit`).  Starts: the best point of a
    dense grid of the effect's magnitudes (roboball.physics.effects.Param.grid_values), tried on
-   the current model's values and on "nominal" values (baseline parameters at their defaults,
-   release states at the hold levels, earlier effects rescaled by 0.1-1.6), because a model
-   that misses strong physics distorts its own fit and dry friction's cost has narrow basins.
-   After a few screening iterations the `top_k` best candidates are refitted to convergence and
-   cross-validated: leave one release out (fit on the others, then fit only the held-out
-   release's state with the model frozen and score it), or for a recording with a single
-   release, three contiguous time blocks.
-3. The best candidate (lowest BIC) is kept only if it passes the keep rule
-   (roboball.diagnose.keep: BIC, held-out error, materiality, 95% intervals).
-   Rounds stop when nothing qualifies, the residual is white (lag-1 autocorrelation below
-   `white_rho` and RMS within `white_factor` noise levels), or `max_effects` were added.
-4. A backward pass drops an earlier effect that no longer passes the keep rule against the
-   model without it (made redundant by a later pick); a swap pass replaces a chosen effect by
-   an unchosen one when that lowers the BIC by more than `bic_min` without raising the
-   held-out error (greedy paths can go through an effect that imitates a combination).
+   the parent model's values and on "nominal" values (baseline parameters at their defaults,
+   release states at the hold levels, the parent's effects rescaled by 0.1-1.6), because a
+   model that misses strong physics distorts its own fit and dry friction's cost has narrow
+   basins.  A set reached from two parents keeps the better fit.
+3. The grown models that beat the best model kept so far on BIC are judged, the `top_k` best
+   by BIC: each is refitted to convergence and cross-validated (leave one release out, or
+   three contiguous time blocks of a single release: roboball.diagnose.crossval) and kept only
+   if EVERY effect in it passes the keep rule (roboball.diagnose.keep: BIC, held-out error,
+   materiality, 95% intervals) against the same model without that effect.  The next round's
+   beam is the `beam_width` grown models of lowest BIC that lower their parent's BIC by more
+   than `bic_min` (and the best kept model, if grown this round).
+4. Rounds stop after `max_effects`, or when no model of the beam is left to grow (none lowers
+   its parent's BIC, or their residuals are white: lag-1 autocorrelation below `white_rho` and
+   RMS within `white_factor` noise levels).  The diagnosis is the kept model of lowest BIC.
+
+Why a beam: effects that only help together (a stiffness and a damping: the stiffness alone
+leaves an undamped swing) are missed by a single greedy path that first takes an effect
+imitating part of both (a rolling resistance); a model that passes the keep rule effect by
+effect is found from whichever of its parts the beam holds.  Equivalent explanations of the
+chosen model's effects are then looked for (roboball.diagnose.equivalents).
 
 Verdict: `adequate` when nothing was added and the baseline's residual is at the noise level
 or shows no structure; `augmented` when effects were added and the augmented model explains
@@ -37,7 +43,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from roboball.physics import effects as fx
+from roboball.diagnose.crossval import CrossValidation
 from roboball.diagnose.data import Prepared
+from roboball.diagnose.equivalents import bic_on, equivalents
 from roboball.diagnose.fit import Engine, Problem, effect_keys
 from roboball.diagnose.keep import KeepRule, immaterial
 from roboball.diagnose.scored import Scored, Settings
@@ -56,12 +64,14 @@ class Diagnosis:
     baseline: Scored
     final: Scored
     chosen: list
-    steps: list                     # per round: candidates with their scores
+    steps: list                     # per round: the grown models with their scores and decisions
     ci95: dict
     verdict: str
     noise: float
     timings: dict = field(default_factory=dict)
     folds: list = field(default_factory=list)
+    drop_bic: dict = field(default_factory=dict)       # effect -> BIC change of the final model without it
+    alternatives: dict = field(default_factory=dict)   # effect -> equivalent explanations (equivalents.py)
 
     @property
     def effects(self) -> tuple:
@@ -69,12 +79,12 @@ class Diagnosis:
 
     @property
     def immaterial(self) -> list:
-        return immaterial(self.steps)
+        return immaterial(self.steps, self.chosen)
 
 
-class Selector(KeepRule):
-    """Runs the forward selection for one prepared recording (the keep rule and its statistics
-    are inherited from roboball.diagnose.keep.KeepRule)."""
+class Selector(KeepRule, CrossValidation):
+    """Runs the search for one prepared recording (the keep rule and its statistics are inherited
+    from roboball.diagnose.keep.KeepRule, the held-out errors from roboball.diagnose.crossval)."""
 
     def __init__(self, prep: Prepared, model: ReducedModel | None = None, settings: Settings | None = None,
                  log=None):
@@ -86,28 +96,7 @@ class Selector(KeepRule):
         self.full_masks = {w.index: np.ones(w.n, bool) for w in prep.windows}
         self.folds = self._folds()
         self.log = log or (lambda msg: None)
-
-    # ---- cross-validation folds --------------------------------------------------------------
-    def _folds(self):
-        """[(train masks, held-out window or None, held-out masks)]."""
-        wins = self.prep.windows
-        if len(wins) >= 2:
-            out = []
-            for w in wins:
-                train = {v.index: np.ones(v.n, bool) for v in wins if v.index != w.index}
-                out.append((train, w.index, {w.index: np.ones(w.n, bool)}))
-            return out
-        w = wins[0]
-        after = np.nonzero(w.t >= w.t0)[0]
-        edges = np.linspace(0, len(after), self.s.n_blocks + 1).astype(int)
-        out = []
-        for b in range(self.s.n_blocks):
-            held = np.zeros(w.n, bool)
-            lo = 0 if b == 0 else after[edges[b]]
-            hi = w.n if b == self.s.n_blocks - 1 else after[edges[b + 1]]
-            held[lo:hi] = True
-            out.append(({w.index: ~held}, None, {w.index: held}))
-        return out
+        self.fits: dict = {}        # frozenset of effects -> the best fit of that model found (Scored)
 
     # ---- problems -----------------------------------------------------------------------------
     def free_keys(self, effects, windows=None) -> list:
@@ -118,92 +107,30 @@ class Selector(KeepRule):
         return Problem(effects=tuple(effects), values=dict(values), free=self.free_keys(effects),
                        masks=dict(self.full_masks))
 
-    # ---- cross-validation ---------------------------------------------------------------------
-    def cross_validate(self, scored: list, cofit: bool = False) -> None:
-        """Held-out RMSE of each scored model (batched over models and folds).  With `cofit`,
-        the models' full fits are refined in the same batched iterations as the folds (which
-        then start from the models' current, not final, values)."""
-        if not scored:
-            return
-        stage1 = self._fold_problems(scored, cofit)
-        c0 = self.engine.n_calls
-        for p in stage1:
-            p.max_iter = self.s.fold_iter if isinstance(p.tag, tuple) else self.s.fit_iter
-        self.engine.fit(stage1, max_iter=self.s.fit_iter)
-        self.log(f"   cv stage1: {len(stage1)} problems, {self.engine.n_calls - c0} calls")
-        stage1 = [p for p in stage1 if isinstance(p.tag, tuple)]
-        stage2 = self._heldout_state_problems(scored, stage1)
-        c0 = self.engine.n_calls
-        self.engine.fit(stage2, max_iter=self.s.state_iter)
-        self.log(f"   cv stage2: {len(stage2)} problems, {self.engine.n_calls - c0} calls")
-        by_tag = {p.tag: p for p in stage2}
-        for sc in scored:
-            self._heldout_score(sc, stage1, by_tag)
-
-    def _fold_problems(self, scored: list, cofit: bool) -> list:
-        """Stage 1: each model fitted on each fold's training data, tagged (id(model), fold)
-        (preceded by the models' full fits with `cofit`), every problem unconverged."""
-        stage1 = [sc.full for sc in scored] if cofit else []
-        for sc in scored:
-            for fi, (train, held_w, held_masks) in enumerate(self.folds):
-                wins = set(train)
-                p = Problem(effects=sc.effects, values=dict(sc.values),
-                            free=[k for k in self.free_keys(sc.effects) if "@" not in k or int(k.split("@")[1]) in wins],
-                            masks=dict(train), tag=(id(sc), fi))
-                stage1.append(p)
-        for p in stage1:
-            p.converged = False
-        return stage1
-
-    def _heldout_state_problems(self, scored: list, stage1: list) -> list:
-        """Stage 2: with a fold's model frozen, only the held-out release's state is fitted
-        (starting from the full fit's); block folds (no held-out release) have none."""
-        stage2 = []
-        for p in stage1:
-            sc_id, fi = p.tag
-            train, held_w, held_masks = self.folds[fi]
-            if held_w is None:
-                continue
-            sc = next(s for s in scored if id(s) == sc_id)
-            v = dict(p.values)
-            for k in self.engine.release_keys([held_w]):
-                v[k] = sc.values[k]
-            stage2.append(Problem(effects=sc.effects, values=v, free=self.engine.release_keys([held_w]),
-                                  masks={held_w: np.ones(self.engine.windows[held_w].n, bool)}, tag=p.tag))
-        return stage2
-
-    def _heldout_score(self, sc: Scored, stage1: list, by_tag: dict) -> None:
-        """Assemble `sc`'s held-out prediction from its folds and its held-out RMSE."""
-        pred = {w.index: np.full(w.n, np.nan) for w in self.prep.windows}
-        for fi, (train, held_w, held_masks) in enumerate(self.folds):
-            p = by_tag.get((id(sc), fi)) if held_w is not None else next(
-                q for q in stage1 if q.tag == (id(sc), fi))
-            for w, m in held_masks.items():
-                pred[w][m] = p.pred[w][m]
-        sc.cv_pred = pred
-        sq = [np.nansum((pred[w.index] - w.y) ** 2) for w in self.prep.windows]
-        n = sum(int(np.sum(np.isfinite(pred[w.index]))) for w in self.prep.windows)
-        sc.cv_rmse = math.sqrt(sum(sq) / max(n, 1))
-
     def white(self, sc: Scored) -> bool:
         return sc.rho1 < self.s.white_rho and sc.rmse <= self.s.white_factor * self.prep.fit_noise
 
-    # ---- the selection ----------------------------------------------------------------------
+    def remember(self, sc: Scored) -> Scored:
+        """Store `sc` as its set's fit unless a better (lower RSS) one is known; returns the kept one."""
+        old = self.fits.get(sc.key)
+        if old is None or sc.full.rss < old.full.rss:
+            self.fits[sc.key] = sc
+            return sc
+        return old
+
+    # ---- the search ---------------------------------------------------------------------------
     def run(self) -> Diagnosis:
         t_start = time.perf_counter()
         base = fit_sensor_lag(self, self._baseline())     # the sensor's own lag, where called for
+        self.fits = {base.key: base}
         timings = {"baseline_s": time.perf_counter() - t_start}
-        current, chosen, steps = self._forward(base)
-        timings["forward_s"] = time.perf_counter() - t_start - timings["baseline_s"]
-        if len(chosen) > 1:
-            t0 = time.perf_counter()
-            current, chosen = self._backward(current, chosen, base)
-            timings["backward_s"] = time.perf_counter() - t0
-        if len(chosen) >= 2:
-            t0 = time.perf_counter()
-            current, chosen = self.swaps(current, list(chosen), base)
-            timings["swap_s"] = time.perf_counter() - t0
-        return self._result(base, current, chosen, steps, timings, t_start)
+        final, steps = self._search(base)
+        timings["search_s"] = time.perf_counter() - t_start - timings["baseline_s"]
+        t0 = time.perf_counter()
+        final, alternatives = equivalents(self, final, base)
+        timings["equivalents_s"] = time.perf_counter() - t0
+        mark_kept(steps, final)
+        return self._result(base, final, steps, alternatives, timings, t_start)
 
     def _baseline(self) -> Scored:
         """Step 1: the baseline fitted, cross-validated and scored."""
@@ -214,190 +141,200 @@ class Selector(KeepRule):
         self.log(f"baseline: rmse {base.rmse:.4g}, held-out {base.cv_rmse:.4g}, rho1 {base.rho1:.3f}")
         return base
 
-    def _forward(self, base: Scored):
-        """Step 2: rounds of candidates until nothing qualifies, the residual is white or
-        `max_effects` were added.  Returns (current model, chosen effects, per-round infos)."""
-        s = self.s
-        current = base
-        chosen: list = []
-        steps = []
-        while len(chosen) < s.max_effects and not self.white(current):
-            cands = [c for c in self.model.candidates if c not in chosen]
-            if not cands:
+    def _search(self, base: Scored):
+        """Steps 2-4: rounds of the beam search.  Returns (the kept model of lowest BIC, per-round
+        infos of every grown model)."""
+        best, beam, steps = base, [base], []
+        for _ in range(self.s.max_effects):
+            parents = [p for p in beam if not self.white(p)]
+            children = self.grow(parents, prefer=best) if parents else []
+            if not children:
                 break
-            probs = self._screen(current, chosen, cands)
-            round_info, eligible = self._judge(probs, current, base)
-            summary = ", ".join(f"{i['effect']} dBIC {i['delta_bic']:.4g} cv {i['cv_rmse']:.4g} "
-                                f"expl {i['explained']:.3g} ({i['reason']})" for i in round_info[: s.top_k + 1])
-            steps.append(round_info)
-            if not eligible:
-                self.log("round: nothing qualifies: " + summary)
+            judged = self._judge(children, best, base)
+            before = best
+            for sc, checks in judged:
+                if all(not fails for _, _, fails in checks) and sc.bic < best.bic:
+                    best = sc
+            steps.append(self._round_info(children, dict((id(sc), checks) for sc, checks in judged), best, base))
+            self.log(f"round: best so far {'+'.join(best.effects) or 'baseline'}; "
+                     + ", ".join(f"{'+'.join(i['set'])} dBIC {i['delta_bic']:.4g} cv {i['cv_rmse']:.4g} ({i['reason']})"
+                                 for i in steps[-1][: self.s.top_k + 2]))
+            if best is before:      # a round that keeps nothing ends the search, as a greedy path would
                 break
-            best = min(eligible, key=lambda sc: sc.bic)
-            for info in round_info:
-                info["kept"] = info["effect"] == best.effects[-1]
-            self.log(f"round: keep {best.effects[-1]}; " + summary)
-            chosen.append(best.effects[-1])
-            current = best
-        return current, chosen, steps
+            beam = self._next_beam(children, best)
+        return best, steps
 
-    def _screen(self, current: Scored, chosen: list, cands: list) -> list:
-        """Each candidate added to the current model, started from its best grid point and
-        fitted for a few screening iterations; the better of its two starts, per candidate."""
+    def grow(self, parents: list, only: dict | None = None, prefer: Scored | None = None) -> list:
+        """Every parent grown by each candidate it lacks (or, with `only`, parent key -> the
+        candidates to add), screened from grid starts; the better fit per set, scored against its
+        parent and remembered.  A set that `prefer` (the best model kept so far) grows into is
+        named as grown from it, whichever parent gave the fit: the report and `immaterial` read
+        the effects that extend the kept model.  Returns the grown models, lowest BIC first."""
+        pairs = [(p, c) for p in parents for c in (only[p.key] if only else self.model.candidates)
+                 if c not in p.effects]
+        if not pairs:
+            return []
+        probs = self._screen(pairs)
+        grown = {}
+        for (parent, _), prob in zip(pairs, probs):
+            if sc_better(prob, grown.get(frozenset(prob.effects))):
+                grown[frozenset(prob.effects)] = (parent, prob)
+        out = []
+        for key, (parent, prob) in grown.items():
+            if prefer is not None and prefer.key < key and len(key - prefer.key) == 1:
+                parent = prefer
+            effects = tuple(parent.effects) + tuple(key - parent.key)
+            sc = Scored(effects=effects, full=prob, parent=parent.effects)
+            self.score(sc, parent)
+            out.append(self.remember(sc))
+        return sorted(out, key=lambda sc: sc.bic)
+
+    def _screen(self, pairs: list) -> list:
+        """Each (parent, candidate) fitted for a few screening iterations from the best grid start
+        of two families of starts; the better of the two per pair."""
         eng = self.engine
-        # Start each candidate from the best grid point of two families of starts: the
-        # current model's values, and "nominal" ones (baseline parameters at their
-        # defaults, release states at the hold levels, the effects already chosen rescaled
-        # by 0.1 to 1.6: a later effect often takes over part of what an earlier one
-        # absorbed).  A model that misses strong physics distorts its own fit (the
-        # viscous coefficient soaks up dry friction, say), and the cost of dry friction has
-        # narrow basins, so a start from the distorted values alone can miss the optimum.
-        nominal = dict(eng.initial_values())
-        nominal.update({k: v for k, v in current.values.items() if "." in k})
-        variants = _rescaled(nominal, chosen)
-        pairs = [x for c in cands for x in ((self.full_problem(tuple(chosen) + (c,), current.values), c,
-                                             current.values),
-                                            (self.full_problem(tuple(chosen) + (c,), nominal), c, variants))]
-        starts = eng.best_starts(pairs)
-        pairs = [(p, c) for p, c, _ in pairs]
-        for (p, _), v in zip(pairs, starts):
+        # The parent's values, and "nominal" ones (baseline parameters at their defaults, release
+        # states at the hold levels, the parent's effects rescaled by 0.1 to 1.6: a later effect
+        # often takes over part of what an earlier one absorbed).  A model that misses strong
+        # physics distorts its own fit (the viscous coefficient soaks up dry friction, say), and
+        # the cost of dry friction has narrow basins, so a start from the distorted values alone
+        # can miss the optimum.  The beam's other parents add diversity of their own, so they get
+        # the nominal values unscaled: their grids cost a sixth of the first parent's.
+        trials = []
+        first = pairs[0][0]
+        for parent, c in pairs:
+            nominal = dict(eng.initial_values())
+            nominal.update({k: v for k, v in parent.values.items() if "." in k})
+            effects = tuple(parent.effects) + (c,)
+            trials.append((self.full_problem(effects, parent.values), c, parent.values))
+            variants = _rescaled(nominal, parent.effects) if parent is first else [nominal]
+            trials.append((self.full_problem(effects, nominal), c, variants))
+        starts = eng.best_starts(trials)
+        for (p, _, _), v in zip(trials, starts):
             v.pop("_cost", None)
             p.values = v
-        eng.fit([p for p, _ in pairs], max_iter=self.s.screen_iter)
-        return [min(pairs[2 * i][0], pairs[2 * i + 1][0], key=lambda p: p.rss) for i in range(len(cands))]
+        eng.fit([p for p, _, _ in trials], max_iter=self.s.screen_iter)
+        return [min(trials[2 * i][0], trials[2 * i + 1][0], key=lambda p: p.rss) for i in range(len(pairs))]
 
-    def _judge(self, probs: list, current: Scored, base: Scored):
-        """The `top_k` best screened candidates (those that fit better than `current`)
-        cross-validated; every candidate scored against `current`.  Returns the round's infos
-        (best fit first) and the candidates that pass the keep rule."""
-        order = sorted(range(len(probs)), key=lambda i: probs[i].rss)
-        top = [Scored(effects=probs[i].effects, full=probs[i]) for i in order[: self.s.top_k]
-               if probs[i].rss < current.full.rss]
-        self.cross_validate(top, cofit=True)
-        round_info = []
-        for i in order:
-            p = probs[i]
-            sc = next((t for t in top if t.full is p), None)
-            if sc is None:
-                sc = Scored(effects=p.effects, full=p)
-            self.score(sc, current)
-            round_info.append(self._candidate_info(sc, sc in top, current, base))
-        eligible = [sc for sc, info in zip([next((t for t in top if t.full is probs[i]), None) for i in order],
-                                           round_info) if info["qualifies"]]
-        return round_info, eligible
+    def _judge(self, children: list, best: Scored, base: Scored) -> list:
+        """The `top_k` grown models of lowest BIC that beat `best` on BIC, cross-validated and
+        judged effect by effect; returns [(model, checks)] (`checks`: see `checks`).  The newest
+        effect is judged first, against the parent; only models whose newest effect passes have
+        the models without each of their other effects cross-validated (most fail on the first)."""
+        todo = [sc for sc in children if sc.bic < best.bic][: self.s.top_k]
+        parents = [self.fits[frozenset(sc.parent)] for sc in todo]
+        self.validate(todo + parents, references=False)
+        out = []
+        for sc in todo:
+            parent = self.fits[frozenset(sc.parent)]
+            first = self.check(sc, sc.effects[-1], parent, base)
+            out.append((sc, [first]))
+        rest = [sc for sc, checks in out if not checks[0][2] and len(sc.effects) > 1]
+        self.validate(rest)
+        return [(sc, self.checks(sc, base) if sc in rest else checks) for sc, checks in out]
 
-    def _candidate_info(self, sc: Scored, cross_validated: bool, current: Scored, base: Scored) -> dict:
-        """One candidate's entry of the round (details.json "rounds"): its scores and, if it
-        was cross-validated, the keep rule's decision with its 95% intervals."""
-        p = sc.full
-        keys = effect_keys(p.effects[-1:])
-        info = dict(effect=p.effects[-1], rmse=sc.rmse, cv_rmse=sc.cv_rmse,
-                    delta_bic=sc.delta_bic, rho1=sc.rho1, explained=self.explained(sc, current),
-                    params={k: p.values[k] for k in keys})
-        if cross_validated:
-            ci = self.ci95(sc)
-            fails = self.failures(sc, current, base, ci)
-            info.update(qualifies=not fails, reason=fails[0][1] if fails else "kept",
-                        failed=[name for name, _ in fails], heldout_gain=self.heldout_gain(sc, current),
-                        ci95={k: list(ci[k]) for k in keys})
-        else:
-            info.update(qualifies=False, reason="not among the best screened", failed=["screened"])
-        info["kept"] = False
-        return info
+    def validate(self, models: list, references: bool = True, only: str | None = None) -> None:
+        """Cross-validate `models` (refitting them to convergence) and, with `references`, every
+        model each of their effects (or only effect `only`) is judged against (`references`),
+        where not done yet (those never fitted start from the model's own values, the effect left
+        out or simplified)."""
+        targets = [(e, key, effects, values) for sc in (models if references else [])
+                   for e, key, effects, values in self.references(sc) if only is None or e == only]
+        for _, key, effects, values in targets:
+            if key not in self.fits:
+                self.fits[key] = Scored(effects=effects, full=self.full_problem(effects, values))
+        others = [self.fits[key] for _, key, _, _ in targets]
+        need = list({id(x): x for x in list(models) + others if math.isnan(x.cv_rmse)}.values())
+        self.cross_validate(need, cofit=True)
+        for x in need:
+            self.score(x, self.fits.get(frozenset(x.parent)) if x.parent is not None else None)
 
-    def _backward(self, current: Scored, chosen: list, base: Scored):
-        """Step 4a: drop effects a later pick made redundant, one at a time, until none is."""
-        chosen = list(chosen)
-        while len(chosen) > 1:
-            dropped, current = self._redundant(current, chosen, base)
-            if dropped is None:
-                break
-            chosen.remove(dropped)
-        return current, chosen
+    def references(self, sc: Scored) -> list:
+        """What each effect of `sc` is judged against, the newest effect first: [(effect, key,
+        effects, starting values)] of the same model without the effect, and, for an effect that
+        becomes a simpler vocabulary entry at a parameter's zero (backlash with no free play is
+        linear stiffness), of the model with the simpler entry in its place: its extra parameter
+        must earn its keep by the same rule (a search that grows both sets would otherwise
+        choose between them by BIC alone)."""
+        out = []
+        for e in reversed(sc.effects):
+            rest = tuple(x for x in sc.effects if x != e)
+            v = {k: x for k, x in sc.values.items() if not k.startswith(e + ".")}
+            out.append((e, frozenset(rest), rest, v))
+            eff = fx.LIBRARY[e]
+            for _, simpler in eff.reduces_to:
+                if simpler in sc.effects:
+                    continue
+                plain = rest + (simpler,)
+                first = fx.LIBRARY[simpler].params[0].name
+                out.append((e, frozenset(plain), plain, {**v, f"{simpler}.{first}": sc.values[f"{e}.{eff.params[0].name}"]}))
+        return out
 
-    def _redundant(self, current: Scored, chosen: list, base: Scored):
-        """The first earlier effect of `chosen` that no longer passes the keep rule against the
-        model without it, with that model; (None, current) when every one still does."""
-        reduced = []
-        # The last effect has just passed the keep rule against the model without it.
-        candidates_out = chosen[:-1]
-        for e in candidates_out:
-            rest = tuple(c for c in chosen if c != e)
-            v = {k: x for k, x in current.values.items() if not k.startswith(e + ".")}
-            reduced.append(Scored(effects=rest, full=self.full_problem(rest, v)))
-        self.cross_validate(reduced, cofit=True)
-        for e, r in zip(candidates_out, reduced):
-            self.score(current, r)
-            needed, why = self.qualifies(_reordered(current, e), r, base)
-            if not needed:
-                self.log(f"backward: drop {e} ({why})")
-                return e, r
-        return None, current
+    def checks(self, sc: Scored, base: Scored, only: str | None = None) -> list:
+        """The keep rule for every effect of `sc` (or only effect `only`) against each model it is
+        judged against (`references`): [(effect, that model, failures)]; `sc` is kept only if
+        every failure list is empty."""
+        ci = self.ci95(sc)
+        return [self.check(sc, e, self.fits[key], base, ci) for e, key, _, _ in self.references(sc)
+                if only is None or e == only]
 
-    def swaps(self, current: Scored, chosen: list, base: Scored, max_swaps: int = 2):
-        """Step 4b: replace a chosen effect by an unchosen one when that fits clearly better.
+    def check(self, sc: Scored, e: str, ref: Scored, base: Scored, ci: dict | None = None) -> tuple:
+        """(e, ref, the keep rule's failures of effect `e` of `sc` against `ref`, `sc` without it)."""
+        as_last = sc.reordered(e)
+        self.score(as_last, ref)
+        return e, ref, self.failures(as_last, ref, base, ci)
 
-        Greedy selection can take a path through an effect that imitates a combination (on a
-        ramp run over a narrow speed range, linear damping imitates drag plus rolling
-        resistance); each chosen effect is swapped in turn for every unchosen candidate, refitted
-        from grid starts, and the best swap is taken when it lowers the BIC by more than
-        `bic_min` and does not raise the held-out error."""
-        s = self.s
-        for _ in range(max_swaps):
-            probs = self._swap_fits(current, chosen)
-            if not probs:
-                break
-            best_p = min(probs, key=lambda p: p.rss)
-            if not best_p.rss < current.full.rss:
-                break
-            cand = Scored(effects=best_p.effects, full=best_p)
-            self.cross_validate([cand], cofit=True)
-            self.score(cand, current)
-            if cand.delta_bic < -s.bic_min and cand.cv_rmse <= current.cv_rmse and \
-                    not self.not_itself(cand, cand.effects[-1]):
-                out = next(e for e in chosen if e not in cand.effects)
-                self.log(f"swap: {out} -> {cand.effects[-1]} (dBIC {cand.delta_bic:.1f}, held-out "
-                         f"{cand.cv_rmse:.4g} vs {current.cv_rmse:.4g})")
-                chosen = list(cand.effects)
-                current = cand
+    def _next_beam(self, children: list, best: Scored) -> list:
+        """The grown models of lowest BIC that clearly improve on their parent, and `best` if it
+        is of this size (its own extensions are the greedy path's)."""
+        size = len(children[0].effects)
+        beam = [sc for sc in children if sc.delta_bic < -self.s.bic_min][: self.s.beam_width]
+        if len(best.effects) == size and all(sc is not best for sc in beam):
+            beam.append(best)
+        return beam
+
+    # ---- what the report reads ---------------------------------------------------------------
+    def _round_info(self, children: list, judged: dict, best: Scored, base: Scored) -> list:
+        """One entry per grown model (details.json "rounds"): its scores against its parent and,
+        if it was judged, the keep rule's decision for each of its effects."""
+        out = []
+        for sc in children:
+            newest = sc.effects[-1]
+            keys = effect_keys((newest,))
+            parent = self.fits[frozenset(sc.parent)]
+            info = dict(effect=newest, set=sorted(sc.effects), parent=sorted(sc.parent), rmse=sc.rmse,
+                        cv_rmse=sc.cv_rmse, delta_bic=sc.bic - bic_on(parent, sc), rho1=sc.rho1,
+                        explained=self.explained(sc, parent), params={k: sc.values[k] for k in keys})
+            checks = judged.get(id(sc))
+            if checks is None:
+                why = ("does not beat the best model kept so far on BIC" if sc.bic >= best.bic or sc is best
+                       else "not among the best judged")
+                info.update(qualifies=False, reason=why, failed=["screened"])
             else:
-                break
-        return current, chosen
+                info.update(_decision(self, sc, parent, checks))
+            info["kept"] = False
+            out.append(info)
+        return out
 
-    def _swap_fits(self, current: Scored, chosen: list) -> list:
-        """Every chosen effect replaced in turn by every unchosen candidate, started from the
-        best grid point and fitted for the screening iterations ([] when there is none)."""
-        eng = self.engine
-        others = [c for c in self.model.candidates if c not in chosen]
-        trials = []
-        for e in chosen:
-            keep = [c for c in chosen if c != e]
-            v = {k: x for k, x in current.values.items() if not k.startswith(e + ".")}
-            for u in others:
-                trials.append((self.full_problem(tuple(keep) + (u,), v), u, _rescaled(v, keep)))
-        if not trials:
-            return []
-        starts = eng.best_starts(trials)
-        for (p, _, _), st in zip(trials, starts):
-            st.pop("_cost", None)
-            p.values = st
-        probs = [p for p, _, _ in trials]
-        eng.fit(probs, max_iter=self.s.screen_iter)
-        return probs
-
-    def _result(self, base: Scored, current: Scored, chosen: list, steps: list, timings: dict,
+    def _result(self, base: Scored, final: Scored, steps: list, alternatives: dict, timings: dict,
                 t_start: float) -> Diagnosis:
         """The final model scored against the baseline, its intervals, verdict and timings."""
+        chosen = list(final.effects)
+        drop = {}
         if chosen:
-            self.score(current, base)
-        ci = self.ci95(current) if chosen else {}
-        verdict = self.verdict(base, current, chosen)
+            self.validate([final])
+            for e, ref, _ in self.checks(final, base):
+                if ref.key == final.key - {e}:
+                    drop[e] = final.reordered(e).bic - bic_on(ref, final)
+            self.score(final, base)
+        ci = self.ci95(final) if chosen else {}
+        verdict = self.verdict(base, final, chosen)
         timings["total_s"] = time.perf_counter() - t_start
         timings["simulations"] = self.engine.n_sims
         timings["batched_calls"] = self.engine.n_calls
-        return Diagnosis(prep=self.prep, model=self.model, settings=self.s, baseline=base, final=current,
-                         chosen=list(chosen), steps=steps, ci95=ci, verdict=verdict, noise=self.prep.noise,
-                         timings=timings, folds=self.folds)
+        return Diagnosis(prep=self.prep, model=self.model, settings=self.s, baseline=base, final=final,
+                         chosen=chosen, steps=steps, ci95=ci, verdict=verdict, noise=self.prep.noise,
+                         timings=timings, folds=self.folds, drop_bic=drop, alternatives=alternatives)
 
     def verdict(self, base: Scored, final: Scored, chosen) -> str:
         s, noise = self.s, self.prep.fit_noise
@@ -406,6 +343,39 @@ class Selector(KeepRule):
             return "unexplained" if structured else "adequate"
         explained = final.rmse <= max(s.explained_factor * noise, s.explained_ratio * base.rmse)
         return "augmented" if explained else "unexplained"
+
+
+def _decision(sel: Selector, sc: Scored, parent: Scored, checks: list) -> dict:
+    """The keep rule's decision on a judged model for the round's table: the newest effect's
+    statistics against its parent, and the first failure of any effect (or "kept")."""
+    newest = sc.effects[-1]
+    ci = sel.ci95(sc)
+    failed, reason = [], "every effect passes the keep rule"
+    for e, ref, fails in checks:
+        for name, why in fails:
+            if name not in failed:
+                failed.append(name)
+        if fails and reason.startswith("every"):
+            if ref.key == sc.key - {e}:
+                reason = fails[0][1] if e == newest else f"{e} is not needed beside the others: {fails[0][1]}"
+            else:
+                simpler = "+".join(sorted(ref.key - sc.key))
+                reason = f"{e} does not earn its keep against {simpler}: {fails[0][1]}"
+    return dict(qualifies=not failed, reason=reason, failed=failed, heldout_gain=sel.heldout_gain(sc, parent),
+                ci95={k: list(ci[k]) for k in effect_keys((newest,))})
+
+
+def sc_better(prob: Problem, old) -> bool:
+    """Whether the fit `prob` beats `old` ((parent, problem) or None) on RSS."""
+    return old is None or prob.rss < old[1].rss
+
+
+def mark_kept(steps: list, final: Scored) -> None:
+    """Mark, in every round, the grown model that is the final one or part of it (the path)."""
+    chosen = set(final.effects)
+    for step in steps:
+        for info in step:
+            info["kept"] = bool(info.get("qualifies")) and set(info["set"]) <= chosen
 
 
 def _rescaled(values: dict, effects, factors=(0.1, 0.3, 0.6, 1.0, 1.6), cap: int = 9) -> list:
@@ -427,12 +397,6 @@ def _rescaled(values: dict, effects, factors=(0.1, 0.3, 0.6, 1.0, 1.6), cap: int
             v[key] = values[key] * f
         out.append(v)
     return out
-
-
-def _reordered(sc: Scored, last: str) -> Scored:
-    """The same fitted model with `last` named as its most recent effect (for `qualifies`)."""
-    return Scored(effects=tuple(e for e in sc.effects if e != last) + (last,), full=sc.full, cv_rmse=sc.cv_rmse,
-                  cv_pred=sc.cv_pred, rho1=sc.rho1, bic=sc.bic, delta_bic=sc.delta_bic)
 
 
 def diagnose_prepared(prep: Prepared, settings: Settings | None = None, log=None,

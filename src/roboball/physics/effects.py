@@ -39,6 +39,14 @@ Conventions and modelling choices
   torque acts, outside it a transmission stiffness k_b engages (a dead-zone spring).
 * linear_stiffness may be negative (the body swings slower than the rigid model says: less
   restoring torque per radian than m g d, or more inertia).
+* added_inertia is no torque: the coordinate's inertia M becomes M + delta_i (a geared joint's
+  reflected rotor inertia J N^2: the motor's rotor turns N times faster than the joint).  Its
+  law returns the inertia it adds; `total_torque` leaves it out and `total_inertia` sums it,
+  and each model divides its torques by M + total_inertia.  It slows every swing by the same
+  ratio sqrt(M / (M + delta_i)) whatever its amplitude, where a negative linear_stiffness slows
+  large swings more than small ones (gravity's restoring torque per radian, k_g sin(q) / q,
+  falls with the angle, the spring's does not), so the data tell the two apart only by how the
+  period changes with amplitude.
 """
 from __future__ import annotations
 
@@ -111,6 +119,11 @@ def rolling_resistance(q, qd, tau_rr, m=NP):
     return -tau_rr * m.tanh(qd / V_EPS)
 
 
+def added_inertia(q, qd, delta_i, m=NP):
+    """Inertia delta_i (kg m^2) added to the coordinate's: M becomes M + delta_i (no torque)."""
+    return delta_i + 0.0 * qd
+
+
 # ---- metadata -------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class Param:
@@ -149,6 +162,7 @@ class Effect:
     explains: str = ""
     description: str = ""
     reduces_to: tuple = ()      # ((param, simpler effect), ...): at param = 0 this effect IS that one
+    mechanism: tuple = ()       # ((sign of the magnitude, what it stands for physically), ...)
 
     def defining_params(self) -> tuple:
         """The parameters that must differ from zero for the effect to be itself: its
@@ -163,45 +177,71 @@ class Effect:
     def units(self) -> dict:
         return {p.name: p.unit for p in self.params}
 
+    def mechanism_for(self, params: dict) -> str:
+        """The physical mechanism the effect stands for at these parameter values (the sign of
+        its magnitude picks one where the two signs mean different things)."""
+        x = params.get(self.params[0].name, 0.0)
+        for sign, text in self.mechanism:
+            if sign == 0 or (sign > 0) == (x >= 0):
+                return text
+        return ""
 
-def _e(name, law, params, explains, kind="force", context=(), reduces_to=()):
+
+def _e(name, law, params, explains, kind="force", context=(), reduces_to=(), mechanism=()):
     return Effect(name=name, law=law, params=tuple(params), kind=kind, context=tuple(context),
-                  explains=explains, description=(law.__doc__ or "").split("\n")[0], reduces_to=tuple(reduces_to))
+                  explains=explains, description=(law.__doc__ or "").split("\n")[0], reduces_to=tuple(reduces_to),
+                  mechanism=tuple(mechanism))
 
 
 LIBRARY: dict[str, Effect] = {e.name: e for e in (
     _e("viscous_damping", viscous_damping,
        [Param("c", "N m s/rad", 0.0, 50.0, 1.0)],
-       "amplitude decays exponentially (constant damping ratio)"),
+       "amplitude decays exponentially (constant damping ratio)",
+       mechanism=((0, "a loss proportional to speed: lubricated bearing or seal, air drag at low speed, a soft shell's material damping"),)),
     _e("coulomb_friction", coulomb_friction,
        [Param("tau_c", "N m", 0.0, 10.0, 0.3)],
-       "amplitude falls linearly; swings stop off rest"),
+       "amplitude falls linearly; swings stop off rest",
+       mechanism=((0, "dry (Coulomb) friction in the joint's bearings, seals or gearbox"),)),
     _e("stiction", stiction,
        # typical size and bound of the peak (0.18 and 5.9 N m): the law's outputs of the former
        # amplitude parametrisation (0.3 and 10), so the fits start from the same grid
        [Param("tau_s", "N m", 0.0, 10.0 * STICTION_PEAK, 0.3 * STICTION_PEAK)],
-       "swings stop earlier and further from rest than kinetic friction alone allows"),
+       "swings stop earlier and further from rest than kinetic friction alone allows",
+       mechanism=((0, "static friction above kinetic friction (breakaway) in the bearings or gearbox"),)),
     _e("quadratic_drag", quadratic_drag,
        [Param("c2", "N m s^2/rad^2", 0.0, 20.0, 0.2)],
-       "large swings damp faster than small ones (decay rate grows with amplitude)"),
+       "large swings damp faster than small ones (decay rate grows with amplitude)",
+       mechanism=((0, "aerodynamic or fluid drag growing with the square of speed"),)),
     _e("linear_stiffness", linear_stiffness,
        [Param("k", "N m/rad", -60.0, 200.0, 3.0, grid=(0.02, 10.0, 18), signed=True)],
-       "swing frequency differs from the model's at every amplitude"),
+       "swing frequency differs from the model's at every amplitude",
+       mechanism=((1, "an extra restoring torque: a spring, cable or shell stiffness, or more gravity torque m g d than the facts say"),
+                  (-1, "a softer restoring torque than the facts say (centre of mass nearer the axis: smaller m g d), or a destabilising spring"))),
     _e("cubic_stiffness", cubic_stiffness,
        [Param("k3", "N m/rad^3", -200.0, 500.0, 5.0, grid=(0.05, 30.0, 18), signed=True)],
-       "swing frequency changes with amplitude"),
+       "swing frequency changes with amplitude",
+       mechanism=((1, "a hardening spring (stiffer at large angles: a stop, a stretched cable, a shell flattening)"),
+                  (-1, "a softening restoring torque (weaker at large angles)"))),
     _e("com_offset", com_offset,
        [Param("delta", "rad", -0.5, 0.5, 0.03, grid=(0.1, 5.0, 14), signed=True)],
        "rest angle shifted; swings asymmetric about the model's rest", kind="geometric",
-       context=("k_g",)),
+       context=("k_g",),
+       mechanism=((0, "the centre of mass sits off where the facts put it (mass distribution, a cable or battery moved)"),)),
     _e("backlash", backlash,
        [Param("k_b", "N m/rad", 0.0, 200.0, 5.0, grid=(0.1, 10.0, 9)),
         Param("b", "rad", 0.0, 1.0, 0.15, grid=(0.2, 4.0, 8))],
        "free play about rest: small swings at the rigid frequency, large swings stiffer",
-       reduces_to=(("b", "linear_stiffness"),)),
+       reduces_to=(("b", "linear_stiffness"),),
+       mechanism=((0, "free play (backlash) in a gear or coupling, with a compliant transmission beyond it"),)),
     _e("rolling_resistance", rolling_resistance,
        [Param("tau_rr", "N m", 0.0, 20.0, 1.0)],
-       "a constant torque opposes rolling: linear amplitude loss, stops off rest, lower top speed"),
+       "a constant torque opposes rolling: linear amplitude loss, stops off rest, lower top speed",
+       mechanism=((0, "rolling resistance: the soft shell's hysteresis as it flattens on the ground, or dry friction in the rolling"),)),
+    _e("added_inertia", added_inertia,
+       [Param("delta_i", "kg m^2", 0.0, 2.0, 0.05)],
+       "every swing slower by the same ratio, at every amplitude", kind="inertia",
+       mechanism=((0, "reflected rotor inertia of a geared joint (the motor's rotor inertia J times the gear ratio squared, "
+                      "J N^2), or more inertia than the facts give"),)),
 )}
 
 VOCABULARY = tuple(LIBRARY)
@@ -217,7 +257,8 @@ def get(name: str) -> Effect:
 
 def torque(name: str, q, qd, params: dict, context: dict | None = None, m=NP):
     """Generalised torque of effect `name` at (q, qd) with a parameter dict; `context` holds
-    the experiment constants the effect needs (k_g for com_offset)."""
+    the experiment constants the effect needs (k_g for com_offset).  For an inertia effect this
+    is the inertia it adds (kg m^2), not a torque: `total_torque` leaves those out."""
     eff = get(name)
     kwargs = {p: params[p] for p in eff.param_names}
     for key in eff.context:
@@ -228,10 +269,21 @@ def torque(name: str, q, qd, params: dict, context: dict | None = None, m=NP):
 
 
 def total_torque(effects: dict, q, qd, context: dict | None = None, m=NP):
-    """Sum of several effects: `effects` maps effect name -> parameter dict."""
+    """Sum of several effects' torques: `effects` maps effect name -> parameter dict (inertia
+    effects add no torque and are left out)."""
     total = 0.0 * qd
     for name, params in effects.items():
-        total = total + torque(name, q, qd, params, context, m=m)
+        if get(name).kind != "inertia":
+            total = total + torque(name, q, qd, params, context, m=m)
+    return total
+
+
+def total_inertia(effects: dict, q=0.0, qd=0.0, m=NP):
+    """Inertia (kg m^2) the inertia effects among `effects` add to the coordinate's."""
+    total = 0.0 * qd
+    for name, params in effects.items():
+        if get(name).kind == "inertia":
+            total = total + torque(name, q, qd, params, m=m)
     return total
 
 

@@ -24,6 +24,7 @@ from roboball.physics import effects as fx
 from roboball.physics.mathns import NP
 
 DT = 2e-3          # s: the models' fixed step (roboball.reduced.integrate, explicit midpoint)
+SPARSE_SHARE = 0.5  # an effect active on at most this share of a batch is evaluated on those rows only
 
 
 @dataclass
@@ -67,18 +68,27 @@ class ReducedModel:
         """A function add(q, v, tau) that adds the active effects' torques to `tau` in place
         (and returns it), with the parameters bound.
 
-        Each effect is evaluated only on the rows where it is active when those rows form one
-        contiguous block (the diagnosis orders its batches by candidate, so a candidate screened
-        alone occupies one block); otherwise on the whole batch (zero magnitude -> zero torque).
+        Each effect is evaluated only on the rows where it is active: a slice when those rows
+        form one contiguous block (the diagnosis orders its batches by candidate, so a candidate
+        screened alone occupies one block), else their indices when they are at most
+        `SPARSE_SHARE` of the batch (a search that grows several models at once scatters each
+        effect over the batch), else the whole batch (zero magnitude -> zero torque).  Every row
+        gets the same value either way, to the last bit that NumPy's vectorised exp and tanh may
+        round differently by an element's place in the array (a stiff stiction row's trajectory
+        then moves by up to 1e-6 rad).
         """
         full, part = [], []
         for name in active:
             eff = fx.LIBRARY[name]
+            if eff.kind == "inertia":      # no torque: the model adds it to its inertia (bind_inertia)
+                continue
             first = np.asarray(P[f"{name}.{eff.params[0].name}"])
             rows = np.nonzero(first != 0.0)[0]
             sl = None
             if rows.size and rows[-1] - rows[0] + 1 == rows.size and rows.size < first.size:
                 sl = slice(int(rows[0]), int(rows[-1]) + 1)
+            elif rows.size and rows.size <= SPARSE_SHARE * first.size:
+                sl = rows
             kw = {p: np.asarray(P[f"{name}.{p}"], dtype=float)[sl if sl is not None else slice(None)]
                   for p in eff.param_names}
             for key in eff.context:
@@ -96,6 +106,18 @@ class ReducedModel:
                 tau[sl] += law(q[sl], v[sl], **kw)
             return tau
         return add
+
+
+    def bind_inertia(self, P: dict, active: list):
+        """The inertia (kg m^2) the active inertia effects add to the coordinate's, one value per
+        batch row (zero where inactive), or None when none is active: the model's inertia M
+        becomes M + this (roboball.physics.effects.added_inertia)."""
+        names = [name for name in active if fx.LIBRARY[name].kind == "inertia"]
+        if not names:
+            return None
+        values = {name: {p: np.asarray(P[f"{name}.{p}"], dtype=float) for p in fx.LIBRARY[name].param_names}
+                  for name in names}
+        return np.asarray(fx.total_inertia(values), dtype=float)
 
 
 def active_effects(P: dict, names) -> list:

@@ -1,9 +1,10 @@
 """The stand model of the diagnosis: one rigid pendulum about the joint axis (steer_stand, drive_stand),
 
-    I qdd = -k_g sin q - c qd + tau_effects(q, qd),
+    (I + delta_i) qdd = -k_g sin q - c qd + tau_effects(q, qd),
 
 with I, k_g = m g d and the rest angle from `RobotFacts.steer_stand_terms` /
-`drive_stand_terms` and the viscous coefficient c fitted inside the baseline.  Integrated by
+`drive_stand_terms`, the viscous coefficient c fitted inside the baseline and delta_i the
+inertia an `added_inertia` effect adds (0 without it).  Integrated by
 explicit midpoint (`roboball.reduced.integrate.midpoint`), batched over parameter sets.
 """
 from __future__ import annotations
@@ -32,7 +33,7 @@ class StandModel(ReducedModel):
         self.dof = "steer" if kind == "steer_stand" else "drive"
         self.base_params = (BaseParam("viscous_c", "N m s/rad", 0.0, 20.0, 0.1, 0.1),)
         self.candidates = ("coulomb_friction", "stiction", "quadratic_drag", "linear_stiffness",
-                           "cubic_stiffness", "com_offset", "backlash")
+                           "cubic_stiffness", "com_offset", "backlash", "added_inertia")
         self.description = (f"rigid pendulum about the {self.dof} joint (I = {self.inertia:.4g} kg m^2, "
                             f"m g d = {self.k_g:.4g} N m, rest {self.rest:.4g} rad) with viscous joint damping")
 
@@ -40,6 +41,9 @@ class StandModel(ReducedModel):
         active = active_effects(P, self.candidates)
         c = np.asarray(P["viscous_c"], dtype=float)
         inv_i = 1.0 / self.inertia
+        added = self.bind_inertia(P, active) if active else None
+        if added is not None:
+            inv_i = 1.0 / (self.inertia + added)
         k_g = self.k_g
         extra = self.bind_effects(P, active) if active else None
 

@@ -254,8 +254,22 @@ def _add_robot(plant: MultibodyPlant, spec: SimSpec, robot: RobotFacts, urdf: st
         ramp = spec.ramp_angle_deg if spec.ramp_angle_deg is not None else robot.ramp_angle_deg
         alpha = _ground(plant, robot, spec.kind, ramp, spec.ramp_length_m, spec.heading_deg)
     plant.mutable_gravity_field().set_gravity_vector([0.0, 0.0, -robot.g])
+    _add_rotors(plant, spec, robot)
     plant.Finalize()
     return alpha
+
+
+def _add_rotors(plant: MultibodyPlant, spec: SimSpec, robot: RobotFacts) -> None:
+    """A joint actuator per joint of `spec.reflected_inertia`, with the robot facts' gear ratio N
+    and the rotor inertia that reflects the given inertia (J = value / N^2): Drake adds J N^2 to
+    the joint's diagonal of the mass matrix.  No actuation is applied (the port reads zero)."""
+    for joint, inertia in spec.reflected_inertia.items():
+        if not plant.HasJointNamed(joint):
+            raise ValueError(f"no joint '{joint}' in the {spec.kind} scenario for a reflected inertia")
+        ratio = float(robot.joints[joint]["gear_ratio"])
+        actuator = plant.AddJointActuator(f"{joint}_motor", plant.GetJointByName(joint))
+        actuator.set_default_gear_ratio(ratio)
+        actuator.set_default_rotor_inertia(float(inertia) / ratio ** 2)
 
 
 def _joint_friction(spec: SimSpec, robot: RobotFacts) -> list[ForceTerm]:

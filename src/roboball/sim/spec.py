@@ -73,6 +73,10 @@ class SimSpec:
     # differ by the step at which that system sees the plant's state, so the virtual test bed
     # keeps Drake's default and its campaign regenerates bit-for-bit.
     sampled_output_ports: bool = False
+    # joint -> inertia (kg m^2) added to the joint's own: its motor's reflected rotor inertia, a
+    # JointActuator with the robot facts' gear ratio N and rotor inertia value / N^2 (diagnosis:
+    # the added_inertia effect).  Empty: the URDF's joints have no actuator, as in the paper.
+    reflected_inertia: dict = field(default_factory=dict)
 
     def resolved_robot(self) -> RobotFacts:
         return self.robot if self.robot is not None else load_robot()

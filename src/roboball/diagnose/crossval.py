@@ -1,0 +1,108 @@
+"""Held-out error of fitted models, many at once: each model refitted on every fold's training
+data, then scored on what the fold holds out.
+
+Folds: with two or more releases, leave one release out (fit the model on the others, then fit
+only the held-out release's state with the model frozen, and score it); with a single release,
+`Settings.n_blocks` contiguous time blocks, each predicted by a fit to the others.  All models'
+fold fits run in the same batched Levenberg-Marquardt iterations (roboball.diagnose.fit).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from roboball.diagnose.fit import Problem
+from roboball.diagnose.scored import Scored
+
+
+class CrossValidation:
+    """Cross-validation for the selection (roboball.diagnose.select.Selector) to inherit: it needs
+    `self.prep`, `self.engine`, `self.s` (Settings), `self.free_keys` and `self.log`."""
+
+    def _folds(self):
+        """[(train masks, held-out window or None, held-out masks)]."""
+        wins = self.prep.windows
+        if len(wins) >= 2:
+            out = []
+            for w in wins:
+                train = {v.index: np.ones(v.n, bool) for v in wins if v.index != w.index}
+                out.append((train, w.index, {w.index: np.ones(w.n, bool)}))
+            return out
+        w = wins[0]
+        after = np.nonzero(w.t >= w.t0)[0]
+        edges = np.linspace(0, len(after), self.s.n_blocks + 1).astype(int)
+        out = []
+        for b in range(self.s.n_blocks):
+            held = np.zeros(w.n, bool)
+            lo = 0 if b == 0 else after[edges[b]]
+            hi = w.n if b == self.s.n_blocks - 1 else after[edges[b + 1]]
+            held[lo:hi] = True
+            out.append(({w.index: ~held}, None, {w.index: held}))
+        return out
+
+    def cross_validate(self, scored: list, cofit: bool = False) -> None:
+        """Held-out RMSE of each scored model (batched over models and folds).  With `cofit`,
+        the models' full fits are refined in the same batched iterations as the folds (which
+        then start from the models' current, not final, values)."""
+        if not scored:
+            return
+        stage1 = self._fold_problems(scored, cofit)
+        c0 = self.engine.n_calls
+        for p in stage1:
+            p.max_iter = self.s.fold_iter if isinstance(p.tag, tuple) else self.s.fit_iter
+        self.engine.fit(stage1, max_iter=self.s.fit_iter)
+        self.log(f"   cv stage1: {len(stage1)} problems, {self.engine.n_calls - c0} calls")
+        stage1 = [p for p in stage1 if isinstance(p.tag, tuple)]
+        stage2 = self._heldout_state_problems(scored, stage1)
+        c0 = self.engine.n_calls
+        self.engine.fit(stage2, max_iter=self.s.state_iter)
+        self.log(f"   cv stage2: {len(stage2)} problems, {self.engine.n_calls - c0} calls")
+        by_tag = {p.tag: p for p in stage2}
+        for sc in scored:
+            self._heldout_score(sc, stage1, by_tag)
+
+    def _fold_problems(self, scored: list, cofit: bool) -> list:
+        """Stage 1: each model fitted on each fold's training data, tagged (id(model), fold)
+        (preceded by the models' full fits with `cofit`), every problem unconverged."""
+        stage1 = [sc.full for sc in scored] if cofit else []
+        for sc in scored:
+            for fi, (train, held_w, held_masks) in enumerate(self.folds):
+                wins = set(train)
+                p = Problem(effects=sc.effects, values=dict(sc.values),
+                            free=[k for k in self.free_keys(sc.effects) if "@" not in k or int(k.split("@")[1]) in wins],
+                            masks=dict(train), tag=(id(sc), fi))
+                stage1.append(p)
+        for p in stage1:
+            p.converged = False
+        return stage1
+
+    def _heldout_state_problems(self, scored: list, stage1: list) -> list:
+        """Stage 2: with a fold's model frozen, only the held-out release's state is fitted
+        (starting from the full fit's); block folds (no held-out release) have none."""
+        stage2 = []
+        for p in stage1:
+            sc_id, fi = p.tag
+            train, held_w, held_masks = self.folds[fi]
+            if held_w is None:
+                continue
+            sc = next(s for s in scored if id(s) == sc_id)
+            v = dict(p.values)
+            for k in self.engine.release_keys([held_w]):
+                v[k] = sc.values[k]
+            stage2.append(Problem(effects=sc.effects, values=v, free=self.engine.release_keys([held_w]),
+                                  masks={held_w: np.ones(self.engine.windows[held_w].n, bool)}, tag=p.tag))
+        return stage2
+
+    def _heldout_score(self, sc: Scored, stage1: list, by_tag: dict) -> None:
+        """Assemble `sc`'s held-out prediction from its folds and its held-out RMSE."""
+        pred = {w.index: np.full(w.n, np.nan) for w in self.prep.windows}
+        for fi, (train, held_w, held_masks) in enumerate(self.folds):
+            p = by_tag.get((id(sc), fi)) if held_w is not None else next(
+                q for q in stage1 if q.tag == (id(sc), fi))
+            for w, m in held_masks.items():
+                pred[w][m] = p.pred[w][m]
+        sc.cv_pred = pred
+        sq = [np.nansum((pred[w.index] - w.y) ** 2) for w in self.prep.windows]
+        n = sum(int(np.sum(np.isfinite(pred[w.index]))) for w in self.prep.windows)
+        sc.cv_rmse = math.sqrt(sum(sq) / max(n, 1))
