@@ -245,6 +245,7 @@ def _add_robot(plant: MultibodyPlant, spec: SimSpec, robot: RobotFacts, urdf: st
     plant; returns the ground's slope (rad)."""
     lay = _LAYOUT[spec.kind]
     Parser(plant).AddModelsFromString(urdf, "urdf")
+    _add_rotors(plant, spec, robot)
     if lay["welded"]:
         plant.WeldFrames(plant.world_frame(), plant.GetFrameByName(lay["root"]))
         alpha = 0.0
@@ -254,6 +255,27 @@ def _add_robot(plant: MultibodyPlant, spec: SimSpec, robot: RobotFacts, urdf: st
     plant.mutable_gravity_field().set_gravity_vector([0.0, 0.0, -robot.g])
     plant.Finalize()
     return alpha
+
+
+def _add_rotors(plant: MultibodyPlant, spec: SimSpec, robot: RobotFacts) -> None:
+    """A joint actuator on each joint given an added inertia, whose rotor (inertia delta_i / N^2
+    behind the joint's gear ratio N, configs/robot.yaml) adds its reflected inertia N^2 J =
+    delta_i to the joint's diagonal of the mass matrix.  A negative delta_i (a fit's correction
+    of the URDF's inertia, configs/priors.yaml; never a rotor) is added the same way.  The
+    actuation input is left unconnected (no motor torque: the generalised forces are applied
+    through their own port)."""
+    for joint, delta_i in spec.added_inertia.items():
+        if not delta_i:
+            continue
+        if joint not in robot.joints:
+            raise ValueError(f"added inertia on unknown joint '{joint}' (choose from {', '.join(robot.joints)})")
+        j = plant.GetJointByName(joint)
+        if j.num_velocities() != 1:
+            continue                      # locked in this scenario: nothing turns the rotor
+        n = float(robot.joints[joint]["gear_ratio"])
+        motor = plant.AddJointActuator(f"{joint}_motor", j)
+        motor.set_default_gear_ratio(n)
+        motor.set_default_rotor_inertia(float(delta_i) / n ** 2)
 
 
 def _joint_friction(spec: SimSpec, robot: RobotFacts) -> list[ForceTerm]:

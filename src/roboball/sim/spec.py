@@ -49,6 +49,9 @@ class SimSpec:
     contact: str = "point"
     friction: dict = field(default_factory=lambda: {"steer": "none", "drive": "none"})
     friction_params: dict = field(default_factory=dict)   # joint -> params (default Table I)
+    # joint -> reflected rotor inertia J N^2 (kg m^2) the URDF leaves out (a calibrated stand's
+    # delta_i): a joint actuator with the joint's gear ratio N and rotor inertia delta_i / N^2
+    added_inertia: dict = field(default_factory=dict)
     pressure_kpa: float | None = None
     shell: ShellParams = field(default_factory=ShellParams)
     dt: float = 1e-3
