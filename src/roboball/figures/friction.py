@@ -115,27 +115,19 @@ def fig_stand_fits(recording: str, releases: str, fits: list, out_png: str, titl
         for f in fits:
             traces, rms = drake[f.path]
             unconverged = not f.convergence.get("converged", True)
+            st = f.stand_values()
             ax.plot(*traces[i], color=LAW_COLOURS[f.law], lw=1.4,
-                    label=f"Drake, {LAW_LABELS[f.law]} (rms {rms * 1e3:.0f} mrad"
-                          + ("; chain NOT converged)" if unconverged else ")"))
+                    label=f"Drake, {LAW_LABELS[f.law]}: rms {rms * 1e3:.1f} mrad; stand delta_i "
+                          f"{st['delta_i']:.3g} kg m^2, offset {st['rest_offset'] * 1e3:.1f} mrad"
+                          + ("; chain NOT converged" if unconverged else ""))
         ax.set_ylabel(f"{sig[:-4].replace('_', ' ')} (rad)")
         ax.set_title(f"release {i + 1} at {r['t_release_s']:.2f} s", fontsize=9)
         if i == 0:
-            ax.legend(fontsize=7, loc="upper right")
+            ax.legend(fontsize=7, loc="lower right")
     axes[-1, 0].set_xlabel("time since release (s)")
     fig.suptitle((title or f"{Path(recording).stem}: data and fitted friction laws")
-                 + "\ncalibrated stand: " + _calibration_line(fits), fontsize=10)
+                 + "\n(each law on the stand it calibrated, let go at its fitted angle and instant)", fontsize=10)
     save(fig, out_png)
-
-
-def _calibration_line(fits: list) -> str:
-    """The stands the fits calibrated, for a figure's title."""
-    parts = []
-    for f in fits:
-        st = f.stand_values()
-        parts.append(f"{LAW_LABELS[f.law].split(' (')[0]}: delta_i {st['delta_i']:.3g} kg m^2, "
-                     f"offset {st['rest_offset'] * 1e3:.1f} mrad")
-    return "; ".join(parts)
 
 
 def _table1_rows(fits: list, robot) -> tuple[pd.DataFrame, list, list]:
@@ -181,8 +173,9 @@ TABLE1_HEAD = [
     "Each law is fitted on the calibrated stand: the stand's added inertia `delta_i` (the steer and drive "
     "gearboxes' reflected rotor inertia J N^2, which the URDF leaves out, net of the URDF's own inertia "
     "error) and its `rest_offset` (the measured angle's zero) are fitted with the law, and the angle and "
-    "instant at which each swing starts with them (section Stand calibration). Majd's law is sampled with `sigma_peak`, the "
-    "height of its sigma term's peak; `sigma` is derived from it and `n`. `noise_rad` is the likelihood's "
+    "instant at which each swing starts with them (section Stand calibration). Majd's law is sampled by its "
+    "stiction peak: `h_peak`, the hump's torque where its sigma term peaks, at the speed `v_peak`; `sigma` and "
+    "`omega_c` are derived from them, `f_c` and `n`. `noise_rad` is the likelihood's "
     "standard deviation of the angle, fitted with the law: sensor noise plus what the law cannot fit (the "
     "paper gives none). A fit whose chain did not converge is marked in the law column.", "",
     "| recording | joint | law | parameter | median | 95% interval | MAP | paper | unit |",

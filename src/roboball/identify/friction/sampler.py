@@ -2,10 +2,11 @@
 
 Sampled: every law parameter, the stand's calibration, the noise level sigma and the release
 states (marginalised: the friction levels are correlated with the release amplitudes, so
-conditioning on fitted angles would give too-narrow intervals).  Walkers start from the least-squares Laplace
-approximation; differential-evolution moves adapt, then an independence proposal
-(multivariate t fitted to the samples so far, refitted once, then frozen) mixed with DE moves
-samples (:mod:`roboball.identify.friction.moves`).  All walkers of a proposal are simulated in
+conditioning on fitted angles would give too-narrow intervals).  Walkers start from the
+least-squares Laplace approximation; differential-evolution moves adapt, then an independence
+proposal (multivariate t fitted to the samples so far, refitted at each stage of
+:data:`ADAPT_SCHEDULE`, then frozen) mixed with DE moves samples
+(:mod:`roboball.identify.friction.moves`).  All walkers of a proposal are simulated in
 one vectorised call (``vectorize=True``).  The chain is stored with
 ``emcee.backends.HDFBackend``; an interrupted run resumes from the stored chain and its random
 state (:mod:`roboball.identify.friction.chain`).
@@ -143,7 +144,7 @@ def _make_sampler(problem: FrictionProblem, backend, plan: _Plan, stage: int):
     elif stage == 0:
         mv = default_moves(plan.n_walkers, problem.ndim)
     else:
-        mv = adapted_moves(backend.get_chain(), stage, plan.schedule)
+        mv = adapted_moves(backend.get_chain(), stage, plan.schedule, problem.priors)
     return emcee.EnsembleSampler(plan.n_walkers, problem.ndim, problem.log_prob, vectorize=True,
                                  backend=backend, moves=mv)
 
