@@ -1,20 +1,24 @@
-"""How long a converged Majd friction posterior takes (issue 7: 5 law parameters + noise, a 50 s
-stand log, at least 50 autocorrelation times, under 60 s wall).
+"""How long each friction fit takes to a converged posterior (issue 7: a Majd posterior under 60 s;
+issue 24: every posterior, the real steer log's included, to >= 50 autocorrelation times in
+<= 120 s).
 
-    .venv/bin/python benchmarks/friction_speed.py [--repeats 3] [--joint steer]
+    .venv/bin/python benchmarks/friction_speed.py [--repeats 3] [--laws viscous,coulomb_viscous,majd]
+                                                  [--logs testbed-steer,testbed-drive,real]
 
-The recording: the virtual test bed's stand (full test-bed physics: LuGre joint friction, which
+The recordings: the virtual test bed's stands (full test-bed physics: LuGre joint friction, which
 no fitted law contains, sensor noise, quantisation, irregular sampling), four hand releases and
-about 50 s long, made once with a fixed seed.  Its releases are found as the pipeline finds them
-(roboball.ingest.releases).  Timed: `roboball.identify.friction.fit.fit` with the pipeline's settings
-(32 walkers, autocorr multiple 50, release angles marginalised), i.e. least squares, RK4 step
-choice, emcee to convergence and the summary, in a fresh chain file each run; the median of
-`--repeats` runs is printed with each run's steps, tau and convergence flag.
+about 50 s long, made once with a fixed seed, and the real steer-stand log (../shared beside the
+repository, or $ROBOBALL_REAL_DATA; skipped when absent).  Releases are found as the pipeline
+finds them (roboball.ingest.releases).  Timed: `roboball.identify.friction.fit.fit` with the
+pipeline's settings (configs/config.yaml: walkers, autocorr multiple, step cap; the stand
+calibrated, release states marginalised), i.e. least squares, RK4 step choice, emcee to
+convergence and the summary, in a fresh chain file each run.  Per fit: the median wall time of
+`--repeats` runs and each run's steps, slowest tau, chain/tau and convergence flag.  The drive
+stand is fitted with Majd's law only (as the pipeline does).
 """
 from __future__ import annotations
 
 import argparse
-import json
 import platform
 import statistics
 import sys
@@ -48,34 +52,75 @@ def make(folder: Path, joint: str) -> tuple[Path, Path]:
     return path, rel_path
 
 
+def real_log(folder: Path) -> tuple[Path, Path] | None:
+    """The real steer-stand log ingested as the pipeline does it, or None when it is absent."""
+    import os
+
+    from roboball.atomic import write_json_atomic
+    from roboball.ingest.importers import read_any
+    from roboball.ingest.recording import normalise, write_recording
+    from roboball.ingest.releases.find import require_releases
+
+    root = Path(os.environ.get("ROBOBALL_REAL_DATA", Path(__file__).resolve().parents[1].parent / "shared" / "data"
+                               / "roboball_real"))
+    src = root / "steering_static_stand_response.csv"
+    if not src.exists():
+        return None
+    rec = normalise(read_any(src, kind="steer_stand"))
+    path, rel_path = folder / "real_steer_stand.csv", folder / "real_steer_stand.releases.json"
+    write_recording(path, rec)
+    write_json_atomic(rel_path, {"kind": rec.kind, "releases": [r.as_dict() for r in require_releases(rec)]})
+    return path, rel_path
+
+
+def time_fit(rec: Path, rels: Path, joint: str, law: str, repeats: int, folder: Path, settings: dict) -> list:
+    """Run one fit `repeats` times (fresh chains, seeds 0..); returns (wall s, result) per run."""
+    from roboball.identify.friction.fit import fit
+
+    runs = []
+    for k in range(repeats):
+        t0 = time.perf_counter()
+        res, _ = fit(rec, rels, joint, law, None, folder / f"{rec.stem}_{law}_{k}.h5", walkers=settings["walkers"],
+                     autocorr_multiple=settings["autocorr_multiple"], max_steps=settings["max_steps"], seed=k)
+        runs.append((time.perf_counter() - t0, res))
+    return runs
+
+
+def report(name: str, law: str, runs: list) -> str:
+    walls = [w for w, _ in runs]
+    lines = [f"{name:14s} {law:16s} median {statistics.median(walls):6.1f} s  (runs: "
+             f"{', '.join(f'{w:.1f}' for w in walls)})"]
+    for w, res in runs:
+        c = res["convergence"]
+        lines.append(f"{'':31s} converged {str(c['converged']):5s} steps {c['steps']:5d} tau {c['max_tau']:6.1f} "
+                     f"chain/tau {c['chain_over_tau']:5.1f}  dt {res['integration']['dt_s']:g} s  "
+                     f"rmse {res['fit']['rmse_rad'] * 1e3:.1f} mrad")
+    return "\n".join(lines)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--repeats", type=int, default=3)
-    ap.add_argument("--joint", default="steer", choices=("steer", "drive"))
+    ap.add_argument("--laws", default="viscous,coulomb_viscous,majd")
+    ap.add_argument("--logs", default="testbed-steer,testbed-drive,real")
     args = ap.parse_args(argv)
-    from roboball.identify.friction.fit import fit
+    from roboball.config import CONFIG_DIR, load_yaml
 
-    print(f"machine: {platform.machine()}, python {platform.python_version()}, median of {args.repeats}")
+    settings = load_yaml(CONFIG_DIR / "config.yaml")["friction"]
+    print(f"machine: {platform.machine()}, python {platform.python_version()}, median of {args.repeats}; "
+          f"walkers {settings['walkers']}, autocorr multiple {settings['autocorr_multiple']}, "
+          f"max steps {settings['max_steps']}; target: converged in <= 120 s")
+    laws = args.laws.split(",")
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        rec, rels = make(tmp, args.joint)
-        import pandas as pd
-        t = pd.read_csv(rec).time_s
-        n_rel = len(json.loads(rels.read_text())["releases"])
-        print(f"recording: test-bed {args.joint} stand, {t.iloc[-1] - t.iloc[0]:.1f} s, {len(t)} samples, "
-              f"{n_rel} releases found")
-        walls = []
-        for k in range(args.repeats):
-            t0 = time.perf_counter()
-            res, _ = fit(rec, rels, args.joint, "majd", None, tmp / f"chain{k}.h5", walkers=32,
-                         autocorr_multiple=50.0, max_steps=20000, seed=k)
-            walls.append(time.perf_counter() - t0)
-            c = res["convergence"]
-            print(f"run {k}: {walls[-1]:.1f} s wall, converged {c['converged']}, {c['steps']} steps, "
-                  f"max tau {c['max_tau']:.1f}, chain/tau {c['chain_over_tau']:.0f}, dt {res['integration']['dt_s']:g} s, "
-                  f"rmse {res['fit']['rmse_rad']:.2g} rad")
-        print(f"Majd posterior ({args.joint}, 5 parameters + noise + {n_rel} release angles): "
-              f"median {statistics.median(walls):.1f} s (runs: {', '.join(f'{w:.1f}' for w in walls)}); target < 60 s")
+        for name in args.logs.split(","):
+            joint = "drive" if name == "testbed-drive" else "steer"
+            made = real_log(tmp) if name == "real" else make(tmp, joint)
+            if made is None:
+                print(f"{name}: real steer-stand log not found; skipped")
+                continue
+            for law in (laws if joint == "steer" else [law for law in laws if law == "majd"]):
+                print(report(name, law, time_fit(*made, joint, law, args.repeats, tmp, settings)), flush=True)
     return 0
 
 

@@ -63,11 +63,12 @@ def check_priors(data: dict, source: str) -> dict:
     """Cross-field checks of the friction priors (the schema checks each value): every law lists
     exactly the parameters it fits, ``low < high``, and ``start`` (and a lognormal's median)
     lies inside the bounds.  Returns `data`."""
-    from roboball.physics.friction import PARAMS
+    from roboball.physics.friction import FIT_PARAMS
 
     for joint, laws in data.items():
         for law, params in laws.items():
-            wanted = {p for p in PARAMS[law] if p != "v_tol"}   # v_tol is fixed, not fitted
+            # the stand's calibration (its names are the schema's); a law lists what fits sample
+            wanted = set(params) if law == "stand" else set(FIT_PARAMS[law])
             where = f"{source}: field '{joint}.{law}'"
             missing, extra = sorted(wanted - set(params)), sorted(set(params) - wanted)
             if missing:

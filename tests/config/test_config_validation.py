@@ -162,9 +162,11 @@ def test_snakemake_refuses_bad_configs_before_any_job(tmp_path, case):
 # friction priors (configs/priors.yaml)
 # --------------------------------------------------------------------------------------------
 GOOD_PRIORS = {
-    "steer": {"viscous": {"c": {"type": "loguniform", "low": 0.001, "high": 10.0, "start": 0.104}},
+    "steer": {"stand": {"delta_i": {"type": "uniform", "low": -0.05, "high": 0.25, "start": 0.02},
+                        "rest_offset": {"type": "uniform", "low": -0.1, "high": 0.1, "start": 0.0}},
+              "viscous": {"c": {"type": "loguniform", "low": 0.001, "high": 10.0, "start": 0.104}},
               "majd": {p: {"type": "loguniform", "low": 0.001, "high": 50.0, "start": 1.0}
-                       for p in ("f_w", "f_c", "sigma", "omega_c", "n")}},
+                       for p in ("f_w", "f_c", "h_peak", "v_peak", "n")}},
     "drive": {"coulomb_viscous": {"mu_s": {"type": "uniform", "low": 0.0, "high": 5.0, "start": 0.7},
                                   "mu_d": {"type": "lognormal", "median": 0.6, "sigma_log": 0.5, "start": 0.65},
                                   "c": {"type": "loguniform", "low": 0.001, "high": 10.0, "start": 0.1}}},
@@ -179,12 +181,22 @@ BAD_PRIORS = {  # case -> (edit, field named, words)
     "unknown_key": (lambda d: d["steer"]["viscous"]["c"].update(hgih=3.0), "steer.viscous.c", "'hgih' was unexpected"),
     "wrong_type": (lambda d: d["steer"]["viscous"]["c"].update(start="0.1"), "steer.viscous.c.start",
                    "is not of type 'number'"),
-    "missing_parameter": (lambda d: d["steer"]["majd"].pop("omega_c"), "steer.majd", "no prior for omega_c"),
+    "missing_parameter": (lambda d: d["steer"]["majd"].pop("v_peak"), "steer.majd", "no prior for v_peak"),
     "foreign_parameter": (lambda d: d["steer"]["viscous"].update(mu_d=dict(d["steer"]["viscous"]["c"])),
                           "steer.viscous", "mu_d is not a parameter of the viscous law"),
     "bounds_swapped": (lambda d: d["steer"]["viscous"]["c"].update(low=20.0), "steer.viscous.c", "is not below high"),
     "start_outside": (lambda d: d["steer"]["viscous"]["c"].update(start=30.0), "steer.viscous.c",
                       "start 30 is outside the bounds"),
+    # Majd's law is sampled by its stiction peak (roboball.physics.friction.FIT_PARAMS), not sigma
+    "majd_sigma": (lambda d: d["steer"]["majd"].update(sigma=d["steer"]["majd"].pop("h_peak")), "steer.majd",
+                   "'sigma' is not one of"),
+    # the stand's calibration: both parameters, uniform, start inside (bounds may be negative)
+    "stand_missing_offset": (lambda d: d["steer"]["stand"].pop("rest_offset"), "steer.stand",
+                             "'rest_offset' is a required property"),
+    "stand_not_uniform": (lambda d: d["steer"]["stand"]["delta_i"].update(type="loguniform"), "steer.stand.delta_i.type",
+                          "'uniform' was expected"),
+    "stand_start_outside": (lambda d: d["steer"]["stand"]["rest_offset"].update(start=0.2), "steer.stand.rest_offset",
+                            "start 0.2 is outside the bounds"),
 }
 
 

@@ -33,7 +33,7 @@ def test_compiled_loop_matches_numpy_loop_over_prior_draws(joint, law):
     kind = f"{joint}_stand"
     rng = np.random.default_rng(3)
     B = 96
-    params = {name: p.theta(p.sample_u(rng, B)) for name, p in law_priors(joint, law).items()}
+    params = friction.natural_params(law, {name: p.theta(p.sample_u(rng, B)) for name, p in law_priors(joint, law).items()})
     q0 = R.planar_model(kind, ROBOT).rest_angle + rng.uniform(-1.0, 1.0, B)
     a, b = _both(kind, law, params, q0)
     assert a.q.shape == b.q.shape and a.qd.shape == b.qd.shape
@@ -66,7 +66,8 @@ def test_compiled_runs_do_not_depend_on_the_number_of_threads():
     import numba
 
     rng = np.random.default_rng(5)
-    params = {name: p.theta(p.sample_u(rng, 40)) for name, p in law_priors("steer", "majd").items()}
+    params = friction.natural_params("majd", {name: p.theta(p.sample_u(rng, 40))
+                                              for name, p in law_priors("steer", "majd").items()})
     q0 = rng.uniform(-1.0, 1.0, 40)
     model = R.planar_model("steer_stand", ROBOT)
     n0 = numba.get_num_threads()
@@ -113,3 +114,26 @@ def test_segments_stop_at_their_own_end_and_match_the_numpy_loop(monkeypatch):
     for ya, yb in zip(a, b):
         assert ya.shape == yb.shape
         assert np.max(np.abs(ya - yb)) < TOL
+
+
+def test_a_calibrated_stand_runs_alike_in_both_loops(monkeypatch):
+    """The calibrated stand of the friction fits: an added inertia per walker (compiled: one M0 per
+    row), a rest offset per walker and a shift of each release's instant, the same in both loops;
+    and the rows are those of single runs of each walker's calibrated stand."""
+    segs = [(np.linspace(1.0, 4.0, 300), 1.0), (np.linspace(5.0, 9.0, 400), 5.0)]
+    params = {k: np.array([v, 1.3 * v, 0.7 * v]) for k, v in ROBOT.majd_params("steer").items()}
+    q0 = np.array([[0.8, -0.6], [0.5, 0.9], [-0.2, 0.4]])
+    cal = dict(added_inertia=np.array([0.0, 0.08, -0.03]), rest_offset=np.array([0.0, 0.01, -0.02]),
+               release_shift=np.array([[0.0, 0.05], [-0.04, 0.0], [0.1, -0.1]]))
+    a = R.simulate_segments("steer_stand", segs, q0, "majd", params, **cal)
+    monkeypatch.setattr(K, "supports", lambda *args: False)
+    b = R.simulate_segments("steer_stand", segs, q0, "majd", params, **cal)
+    for s, (ya, yb) in enumerate(zip(a, b)):
+        assert np.max(np.abs(ya - yb)) < TOL
+        t, t_rel = segs[s]
+        for w in range(3):
+            one = R.simulate_stand("steer_stand", t, q0[w, s], 0.0, "majd", {k: v[w] for k, v in params.items()},
+                                   t0=t_rel + cal["release_shift"][w, s], added_inertia=cal["added_inertia"][w],
+                                   rest_offset=cal["rest_offset"][w])[0]
+            assert np.max(np.abs(ya[w] - one)) < 1e-6, (s, w)
+    assert np.max(np.abs(a[0][1] - a[0][0])) > 0.05                 # the calibration acts

@@ -69,7 +69,7 @@ def test_added_inertia_is_the_joint_actuators_reflected_rotor_inertia_in_drake(k
     t, yr = _reduced(model, q0, {"viscous_c": 0.1, **_flat(effects)}, 6.0)
     prep = type("Prep", (), {"kind": kind})()
     spec = drake_spec(prep, model, {"viscous_c": 0.1, **_flat(effects)}, list(effects), dt=2.5e-4)
-    assert spec.reflected_inertia == {joint: pytest.approx(0.12)}
+    assert spec.added_inertia == {joint: pytest.approx(0.12)}
     assert [term.name for term in spec.extra_terms] == ["diagnosed[coulomb_friction]"]
     from roboball.sim.plant import build
     actuator = build(spec).plant.GetJointActuatorByName(f"{joint}_motor")

@@ -110,3 +110,12 @@ def test_report_reruns_nothing(results):
             "assert 'pydrake' not in sys.modules and 'emcee' not in sys.modules, sorted(sys.modules)")
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert r.returncode == 0, r.stderr[-2000:]
+
+
+def test_report_never_recommends_an_unconverged_chain(results, capsys):
+    pd.DataFrame({"law": ["viscous", "majd"], "bic": [-1200.0, -1452.5], "converged": [True, False]}).to_csv(
+        results / "results" / "friction" / "testbed" / "steer_comparison.csv", index=False)
+    rc, md, _ = _render(results, capsys)
+    assert rc == 0
+    assert "**viscous** (majd, of lower BIC, left out: its chain did not converge)" in md
+    assert "**majd**" not in md

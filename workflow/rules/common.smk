@@ -161,8 +161,10 @@ def get_stand_fits(wildcards):
 
 
 def get_prior_json(wildcards):
-    """Only this model's prior block: editing another model's prior does not rerun this fit."""
-    return json.dumps(PRIORS[wildcards.joint][wildcards.law], sort_keys=True)
+    """Only this model's prior block and its joint's stand calibration: editing another model's
+    prior does not rerun this fit."""
+    joint = PRIORS[wildcards.joint]
+    return json.dumps({wildcards.joint: {wildcards.law: joint[wildcards.law], "stand": joint["stand"]}}, sort_keys=True)
 
 
 def get_ramp_scales(wildcards):

@@ -16,7 +16,7 @@ Where each experiment's coordinate lives in the plant:
   construction as the injected shell's drive damping.
 
 An inertia effect (`added_inertia`) is no force: on a stand it is the joint actuator's rotor
-inertia (`SimSpec.reflected_inertia`: a JointActuator with the facts' gear ratio N and rotor
+inertia (`SimSpec.added_inertia`: a JointActuator with the facts' gear ratio N and rotor
 inertia delta_i / N^2, which Drake adds to the joint's diagonal of the mass matrix as J N^2).
 The shell's roll and the ramp's drive rate are no joint with a motor (the roll is the floating
 base's), and the diagnosis offers no inertia effect there.
@@ -91,7 +91,7 @@ def drake_spec(prep: Prepared, model: ReducedModel, values: dict, effects, dt: f
         joint = "steer" if kind == "steer_stand" else "drive"
         return SimSpec(kind=kind, contact="point", friction={joint: "viscous"},
                        friction_params={joint: {"c": float(values["viscous_c"])}}, dt=dt, extra_terms=extra,
-                       reflected_inertia={joint: added} if added else {})
+                       added_inertia={joint: added} if added else {})
     if added:
         raise ValueError(f"no added inertia on the {kind} coordinate in Drake (no joint actuator there)")
     if kind == "shell_rock":

@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 
 from roboball.atomic import write_csv_atomic, write_text_atomic
+from roboball.identify.friction.comparison import recommendation
 from roboball.identify.friction.results import FrictionFit, read_fit
 from roboball.physics import friction
 from roboball.figures.style import plt, save
@@ -52,27 +53,59 @@ def fig5(fits: list, out_png: str) -> None:
     save(fig, out_png)
 
 
-def _drake_swing(kind, law, params, q0, duration):
-    from roboball.sim.scenarios import simulate
+def _drake_release(kind: str, f: FrictionFit, q0: float, shift: float, duration: float):
+    """One release of fit `f` simulated in Drake on the calibrated stand: the fitted law, the
+    stand's added inertia on the joint's rotor and its rest offset
+    (:func:`roboball.sim.scenarios.simulate_calibrated_stand`), let go `shift` seconds after the
+    release finder's instant.  Returns (times from that instant, measured angle)."""
+    from roboball.sim.scenarios import simulate_calibrated_stand
     from roboball.sim.spec import SimSpec
 
     joint = "steer" if kind == "steer_stand" else "drive"
     other = "drive" if joint == "steer" else "steer"
-    spec = SimSpec(kind=kind, friction={joint: law, other: "none"}, friction_params={joint: params})
-    df = simulate(spec, q0, duration, sample_rate_hz=200.0)
-    col = "steer_angle_rad" if kind == "steer_stand" else "drive_angle_rad"
-    return df.time_s.to_numpy(), df[col].to_numpy()
+    stand = f.stand_values()
+    spec = SimSpec(kind=kind, friction={joint: f.law, other: "none"},
+                   friction_params={joint: {**f.fixed, **_law_medians(f)}},
+                   added_inertia={joint: stand["delta_i"]})
+    df = simulate_calibrated_stand(spec, q0, max(duration - shift, 0.1), rest_offset=stand["rest_offset"],
+                                   sample_rate_hz=200.0)
+    t = df.time_s.to_numpy() + shift
+    y = df[f"{joint}_angle_rad"].to_numpy()
+    if shift > 0:                        # held at the release angle until let go
+        t, y = np.concatenate([[0.0], t]), np.concatenate([[y[0]], y])
+    return t, y
+
+
+def _drake_fits(rec, rels: list, fits: list) -> dict:
+    """Per fit: its Drake releases [(t, y), ...] and the RMS of the recording about them over
+    every release's free response (what Fig. 7/8 show)."""
+    t_all, y_all = rec.time, rec.signal(rec.main_signal())
+    out = {}
+    for f in fits:
+        angles = f.release_angle_medians()
+        shifts = f.release_shift_medians() or [0.0] * len(rels)
+        traces, res = [], []
+        for i, r in enumerate(rels):
+            q0 = angles[i] if angles and i < len(angles) else r["y_release"]
+            tr = _drake_release(rec.kind, f, q0, shifts[i], r["t_end_s"] - r["t_release_s"])
+            m = (t_all >= r["t_release_s"]) & (t_all <= r["t_end_s"])
+            res.append(y_all[m] - np.interp(t_all[m] - r["t_release_s"], *tr))
+            traces.append(tr)
+        out[f.path] = (traces, float(np.sqrt(np.mean(np.concatenate(res) ** 2))))
+    return out
 
 
 def fig_stand_fits(recording: str, releases: str, fits: list, out_png: str, title: str = "") -> None:
-    """Stand data (every release) overlaid with each fitted law simulated in Drake from the
-    fitted release angle (Fig. 7 for the steer stand, Fig. 8 for the drive stand)."""
+    """Stand data (every release) overlaid with each fitted law simulated in Drake on the
+    calibrated stand from the fitted release angle and instant (Fig. 7 for the steer stand,
+    Fig. 8 for the drive stand); the legend gives each law's RMS against the recording."""
     from roboball.ingest.recording import read_recording
 
     rec = read_recording(recording)
     with open(releases, encoding="utf-8") as fh:
         rels = json.load(fh)["releases"]
     fits = [read_fit(f) for f in fits]
+    drake = _drake_fits(rec, rels, fits)
     sig = rec.main_signal()
     fig, axes = plt.subplots(len(rels), 1, figsize=(9, 2.6 * len(rels)), squeeze=False)
     for i, (ax, r) in enumerate(zip(axes[:, 0], rels)):
@@ -80,71 +113,118 @@ def fig_stand_fits(recording: str, releases: str, fits: list, out_png: str, titl
         m = (t >= r["t_release_s"] - 0.3) & (t <= r["t_end_s"])
         ax.plot(t[m] - r["t_release_s"], y[m], "k.", ms=2.5, label="recording")
         for f in fits:
-            angles = f.release_angle_medians()
-            q0 = angles[i] if angles and i < len(angles) else r["y_release"]
-            ts, ys = _drake_swing(rec.kind, f.law, {**f.fixed, **_law_medians(f)}, q0,
-                                  r["t_end_s"] - r["t_release_s"])
+            traces, rms = drake[f.path]
             unconverged = not f.convergence.get("converged", True)
-            ax.plot(ts, ys, color=LAW_COLOURS[f.law], lw=1.4,
-                    label=f"Drake, {LAW_LABELS[f.law]} (rmse {f.stats['rmse_rad'] * 1e3:.0f} mrad"
-                          + ("; chain not converged)" if unconverged else ")"))
+            st = f.stand_values()
+            ax.plot(*traces[i], color=LAW_COLOURS[f.law], lw=1.4,
+                    label=f"Drake, {LAW_LABELS[f.law]}: rms {rms * 1e3:.1f} mrad; stand delta_i "
+                          f"{st['delta_i']:.3g} kg m^2, offset {st['rest_offset'] * 1e3:.1f} mrad"
+                          + ("; chain NOT converged" if unconverged else ""))
         ax.set_ylabel(f"{sig[:-4].replace('_', ' ')} (rad)")
         ax.set_title(f"release {i + 1} at {r['t_release_s']:.2f} s", fontsize=9)
         if i == 0:
-            ax.legend(fontsize=7, loc="upper right")
+            ax.legend(fontsize=7, loc="lower right")
     axes[-1, 0].set_xlabel("time since release (s)")
-    fig.suptitle(title or f"{Path(recording).stem}: data and fitted friction laws")
+    fig.suptitle((title or f"{Path(recording).stem}: data and fitted friction laws")
+                 + "\n(each law on the stand it calibrated, let go at its fitted angle and instant)", fontsize=10)
     save(fig, out_png)
 
 
-def table1(fits: list, out_csv: str, out_md: str, comparison_csv: str = "", robot_yaml: str = "") -> None:
-    """Table I regenerated: point estimates (posterior median, MAP) and 95% intervals, next to
-    the paper's values; plus the model comparison per joint."""
-    from roboball.config import load_robot
-
-    robot = load_robot(robot_yaml or None)
-    rows, chains = [], []
+def _table1_rows(fits: list, robot) -> tuple[pd.DataFrame, list, list]:
+    """(parameter rows, chain rows, stand-calibration rows) of Table I."""
+    rows, chains, calib = [], [], []
     for path in fits:
         f = read_fit(path)
         paper = friction.table1_params(robot, f.law, f.joint)
+        c = f.convergence
+        converged = bool(c.get("converged", True))
         for name, p in f.parameters.items():
             if name.startswith("release"):
                 continue
             rows.append({"joint": f.joint, "law": f.law, "parameter": name, "median": p["median"],
                          "map": p.get("map", float("nan")), "ci95_low": p["ci95_low"], "ci95_high": p["ci95_high"],
-                         "unit": "rad" if name == "noise_rad" else friction.UNITS.get(name, ""),
-                         "paper_table1": paper.get(name, float("nan")), "source": f.recording})
-        c = f.convergence
+                         "unit": p.get("unit") or ("rad" if name == "noise_rad" else friction.UNITS.get(name, "")),
+                         "paper_table1": paper.get(name, float("nan")), "source": f.recording,
+                         "converged": converged})
         if c:
+            wall = (f.timing or {}).get("wall_s")
             chains.append(f"| {f.recording} | {f.joint} | {f.law} | {c['steps']} | {c['burn_in']} | "
                           f"{c['max_tau']:.0f} | {c['chain_over_tau']:.1f} (needs {c['autocorr_multiple']:g}) | "
-                          f"{c['ess_min']:.0f} | "
-                          f"{'yes' if c['converged'] else '**no**'} |")
-    df = pd.DataFrame(rows)
+                          f"{c['ess_min']:.0f} | {'yes' if c['converged'] else '**no**'} | "
+                          f"{f'{wall:.0f}' if wall is not None else '-'} |")
+        st = f.stand()
+        if st:
+            shifts = ", ".join(f"{x:+.3f}" for x in (f.release_shift_medians() or [])) or "-"
+            calib.append(f"| {f.recording} | {f.joint} | {_law_cell(f.law, converged)} | "
+                         f"{_ci(st['delta_i'])} | {_ci(st['rest_offset'])} | {shifts} |")
+    return pd.DataFrame(rows), chains, calib
+
+
+def _ci(p: dict) -> str:
+    return f"{p['median']:.4g} [{p['ci95_low']:.4g}, {p['ci95_high']:.4g}]"
+
+
+def _law_cell(law: str, converged: bool) -> str:
+    return law if converged else f"{law} (**chain not converged**)"
+
+
+TABLE1_HEAD = [
+    "# Table I: joint-friction parameters (posterior median, 95% interval; paper value)", "",
+    "Each law is fitted on the calibrated stand: the stand's added inertia `delta_i` (the steer and drive "
+    "gearboxes' reflected rotor inertia J N^2, which the URDF leaves out, net of the URDF's own inertia "
+    "error) and its `rest_offset` (the measured angle's zero) are fitted with the law, and the angle and "
+    "instant at which each swing starts with them (section Stand calibration). Majd's law is sampled by its "
+    "stiction peak: `h_peak`, the hump's torque where its sigma term peaks, at the speed `v_peak`; `sigma` and "
+    "`omega_c` are derived from them, `f_c` and `n`. `noise_rad` is the likelihood's "
+    "standard deviation of the angle, fitted with the law: sensor noise plus what the law cannot fit (the "
+    "paper gives none). A fit whose chain did not converge is marked in the law column.", "",
+    "| recording | joint | law | parameter | median | 95% interval | MAP | paper | unit |",
+    "|---|---|---|---|---|---|---|---|---|"]
+
+CHAINS_HEAD = [
+    "", "## Posterior sampling (emcee)", "",
+    "A chain is converged when its length after burn-in is at least `autocorr_multiple` "
+    "integrated autocorrelation times (tau) of its slowest parameter. A chain that reaches "
+    "`friction.max_steps` first is marked **no**: a chain that has not mixed underestimates its "
+    "own tau, so its ESS is optimistic and its intervals may be narrower than the posterior's "
+    "(read them as lower bounds on the uncertainty); the model comparison never recommends it. "
+    "ESS: effective sample size of the slowest parameter. Wall: the whole fit (least squares and "
+    "chain), seconds.", "",
+    "| recording | joint | law | steps | burn-in | slowest tau (steps) | chain / tau | min ESS | converged | wall (s) |",
+    "|---|---|---|---|---|---|---|---|---|---|"]
+
+CALIBRATION_HEAD = [
+    "", "## Stand calibration (posterior median [95% interval])", "",
+    "The stand's added inertia `delta_i` (kg m^2, on top of the URDF's joint inertia; in Drake the joint "
+    "actuator's rotor inertia delta_i / N^2 behind the gear ratio N) and `rest_offset` (rad, added to the "
+    "simulated angle), fitted with each law; the shifts of the release instants from the release finder's "
+    "(s) are the fitted let-go of the hand.", "",
+    "| recording | joint | law | delta_i (kg m^2) | rest_offset (rad) | release shifts (s) |",
+    "|---|---|---|---|---|---|"]
+
+
+def table1(fits: list, out_csv: str, out_md: str, comparison_csv: str = "", robot_yaml: str = "") -> None:
+    """Table I regenerated: point estimates (posterior median, MAP) and 95% intervals, next to
+    the paper's values; the stand's calibration; each chain's state; the model comparison."""
+    from roboball.config import load_robot
+
+    df, chains, calib = _table1_rows(fits, load_robot(robot_yaml or None))
     write_csv_atomic(df, out_csv)
-    md = ["# Table I: joint-friction parameters (posterior median, 95% interval; paper value)", "",
-          "`noise_rad` is the likelihood's standard deviation of the angle, fitted with the law: sensor "
-          "noise plus what the law cannot fit (the paper gives none).", "",
-          "| recording | joint | law | parameter | median | 95% interval | MAP | paper | unit |",
-          "|---|---|---|---|---|---|---|---|---|"]
+    md = list(TABLE1_HEAD)
     for r in df.itertuples():
         paper_value = f"{r.paper_table1:.4g}" if np.isfinite(r.paper_table1) else "-"
-        md.append(f"| {r.source} | {r.joint} | {r.law} | {r.parameter} | {r.median:.4g} | [{r.ci95_low:.4g}, "
-                  f"{r.ci95_high:.4g}] | {r.map:.4g} | {paper_value} | {r.unit} |")
+        md.append(f"| {r.source} | {r.joint} | {_law_cell(r.law, r.converged)} | {r.parameter} | {r.median:.4g} | "
+                  f"[{r.ci95_low:.4g}, {r.ci95_high:.4g}] | {r.map:.4g} | {paper_value} | {r.unit} |")
+    if calib:
+        md += CALIBRATION_HEAD + calib
     if chains:
-        md += ["", "## Posterior sampling (emcee)", "",
-               "A chain is converged when its length after burn-in is at least `autocorr_multiple` "
-               "integrated autocorrelation times (tau) of its slowest parameter. A chain that reaches "
-               "`friction.max_steps` first is marked **no**: a chain that has not mixed underestimates its "
-               "own tau, so its ESS is optimistic and its intervals may be narrower than the posterior's "
-               "(read them as lower bounds on the uncertainty). ESS: effective sample size of the "
-               "slowest parameter.", "",
-               "| recording | joint | law | steps | burn-in | slowest tau (steps) | chain / tau | min ESS | converged |",
-               "|---|---|---|---|---|---|---|---|---|"] + chains
+        md += CHAINS_HEAD + chains
     if comparison_csv:
         cmp_ = pd.read_csv(comparison_csv)
-        md += ["", "## Model comparison (lower BIC is better)", "", cmp_.to_markdown(index=False, floatfmt=".4g")
-               if hasattr(cmp_, "to_markdown") and _has_tabulate() else _md_table(cmp_)]
+        best, why = recommendation(cmp_)
+        md += ["", "## Model comparison (lower BIC is better; only a converged chain is recommended)", "",
+               (f"Recommended: **{best.law}** {why}".rstrip() + "." if best is not None else f"**{why}**."), "",
+               cmp_.to_markdown(index=False, floatfmt=".4g") if _has_tabulate() else _md_table(cmp_)]
     write_text_atomic(out_md, "\n".join(md) + "\n")
 
 

@@ -15,8 +15,19 @@ Notes on the paper's equations
   e^{-|n v / w_c|}] sign(v)`: viscous plus a continuous stiction hump that is zero at v = 0
   and tends to f_c.  We use that form.  With n = 1 (Table I, steer) the bracket reduces to
   f_c (1 - e^{-|v|/w_c}).
+* Fits sample Majd's law by its stiction peak (:data:`FIT_PARAMS`): ``h_peak``, the hump's
+  torque where its sigma term sigma (e^{-x} - e^{-n x}) peaks, at x* = ln n / (n - 1), and
+  ``v_peak`` = omega_c x*, that speed; with f_w, f_c and n (:func:`majd_from_peak`).  Near n = 1
+  the swings see only sigma (n - 1) (at n = 1 sigma cancels exactly), so (sigma, n) lie on a
+  ridge to the prior's bound that no ensemble move crosses quickly, and omega_c trades against
+  n along a curve (the posterior of omega_c and log(n - 1) correlated 0.82-0.85 on the test
+  bed's and the real steer logs, 0.23-0.36 for v_peak); the peak's torque and speed are what
+  the swings pin (their posterior spreads 2-6% and 11%, omega_c's 25%).  At fixed (h_peak,
+  v_peak) the law has a limit at n = 1: f_c (1 - e^{-x}) + e (h_peak - (1 - 1/e) f_c) x e^{-x}.
 """
 from __future__ import annotations
+
+import numpy as np
 
 from roboball.physics.mathns import NP
 
@@ -30,9 +41,19 @@ PARAMS = {
     "majd": ("f_w", "f_c", "sigma", "omega_c", "n"),
 }
 
+# The parameters a fit samples (and configs/priors.yaml gives priors for): v_tol is fixed, and
+# Majd's sigma and omega_c are sampled through its stiction peak (module docstring;
+# :func:`natural_params`).
+FIT_PARAMS = {
+    "viscous": ("c",),
+    "coulomb_viscous": ("mu_s", "mu_d", "c"),
+    "majd": ("f_w", "f_c", "h_peak", "v_peak", "n"),
+}
+
 UNITS = {
     "c": "N m s/rad", "mu_s": "N m", "mu_d": "N m", "v_tol": "rad/s",
     "f_w": "N m s/rad", "f_c": "N m", "sigma": "N m", "omega_c": "rad/s", "n": "1",
+    "h_peak": "N m", "v_peak": "rad/s",
 }
 
 
@@ -57,6 +78,61 @@ def majd(v, f_w, f_c, sigma, omega_c, n, m=NP):
     x = m.abs(v / omega_c)
     hump = f_c + sigma * m.exp(-x) - (sigma + f_c) * m.exp(-n * x)
     return -(f_w * v + hump * m.sign(v))
+
+
+def majd_peak_x(n):
+    """x* = ln n / (n - 1), where the sigma term e^{-x} - e^{-n x} peaks (x = |v| / omega_c),
+    written with log1p so that it stays accurate as n -> 1 (where it tends to 1)."""
+    d = np.asarray(n, dtype=float) - 1.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(d > 1e-8, np.log1p(d) / np.where(d > 1e-8, d, 1.0), 1.0 - 0.5 * d)
+
+
+def majd_peak_factor(n):
+    """The sigma term's peak, e^{-x*} - e^{-n x*} = n^{-1/(n-1)} (n - 1) / n (-> (n - 1) / e)."""
+    d = np.asarray(n, dtype=float) - 1.0
+    return np.exp(-majd_peak_x(n)) * d / (1.0 + d)
+
+
+def majd_from_peak(f_c, h_peak, v_peak, n) -> tuple:
+    """(sigma, omega_c) of Majd's law from its stiction peak (module docstring): the hump's
+    torque h_peak at the sigma term's peak speed v_peak.  sigma < 0 where h_peak is below the
+    Coulomb term's own rise there, f_c (1 - n^{-n/(n-1)}): no stiction peak (see :func:`admissible`)."""
+    xs = majd_peak_x(n)
+    sigma_peak = h_peak - f_c * (1.0 - np.exp(-np.asarray(n, dtype=float) * xs))
+    with np.errstate(divide="ignore", invalid="ignore"):      # n = 1 exactly: sigma is not defined
+        return sigma_peak / majd_peak_factor(n), v_peak / xs
+
+
+def majd_to_peak(f_c, sigma, omega_c, n) -> tuple:
+    """(h_peak, v_peak) of Majd's law with the given parameters (inverse of :func:`majd_from_peak`)."""
+    xs = majd_peak_x(n)
+    return f_c * (1.0 - np.exp(-np.asarray(n, dtype=float) * xs)) + sigma * majd_peak_factor(n), omega_c * xs
+
+
+def natural_params(law: str, fitted: dict) -> dict:
+    """The law's own parameters from the fitted ones (:data:`FIT_PARAMS`): Majd's sigma and
+    omega_c from its stiction peak (unless they are given); other entries are passed through."""
+    out = dict(fitted)
+    if law == "majd" and "h_peak" in out and "v_peak" in out:
+        sigma, omega_c = majd_from_peak(out["f_c"], out["h_peak"], out["v_peak"], out["n"])
+        out.setdefault("sigma", sigma)
+        out.setdefault("omega_c", omega_c)
+    return out
+
+
+def admissible(law: str, params: dict):
+    """Where a law's parameters give friction, a torque that never pushes the joint (True, or a
+    boolean array over parameter sets).  Majd's hump f_c (1 - e^{-nx}) + sigma (e^{-x} - e^{-nx})
+    is >= 0 for every speed iff sigma >= -f_c n / (n - 1) (its slope at rest; the ratio of the
+    two terms is largest there): sigma < 0 is a rise to f_c slower than the Coulomb term's, with
+    no stiction peak, which the fits allow so that a posterior that wants a small peak does not
+    pile against sigma = 0."""
+    if law == "majd" and "sigma" in params:
+        n = np.asarray(params["n"], dtype=float)
+        with np.errstate(invalid="ignore"):                    # nan (n = 1 exactly): not admissible
+            return np.asarray(params["sigma"]) * (n - 1.0) + np.asarray(params["f_c"]) * n >= 0.0
+    return True
 
 
 def torque(law: str, v, params: dict, m=NP):

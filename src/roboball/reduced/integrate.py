@@ -62,7 +62,7 @@ from roboball.errors import RoboballError
 from roboball.physics import friction
 
 __all__ = ["NEWTON_MAX_IT", "PlanarEquation", "Trajectory", "friction_function", "stiff_band",
-           "rk4_stiction", "implicit_step", "sample", "midpoint", "hermite"]
+           "rk4_stiction", "implicit_step", "sample", "sample_rows", "midpoint", "hermite"]
 
 NEWTON_MAX_IT = 40          # iteration cap of the implicit step (the compiled loop freezes the same)
 
@@ -127,12 +127,13 @@ def stiff_band(ffun, inv_m_max, dt, kappa, batch):
     return band, np.maximum(slope[0], 0.0)
 
 
-def _acceleration(model: PlanarEquation, ffun, etor, params):
-    """accel(q, q') -> (acceleration, non-conservative torque) at an RK4 stage."""
+def _acceleration(model: PlanarEquation, ffun, etor, params, m0):
+    """accel(q, q') -> (acceleration, non-conservative torque) at an RK4 stage; `m0` is M0 (a
+    number, or one per row)."""
     gG = model.g * model.mass_moment_kg_m
     beta = model.offset_rad
     const_m = model.constant_inertia
-    inv_m0 = 1.0 / model.inertia0_kg_m2
+    inv_m0 = 1.0 / m0
     RG = model.radius_m * model.mass_moment_kg_m
 
     def accel(qq, vv):
@@ -142,7 +143,7 @@ def _acceleration(model: PlanarEquation, ffun, etor, params):
             tau = tau + etor(qq, vv, params)
         if const_m:
             return (tau - gG * s) * inv_m0, tau
-        m = model.inertia0_kg_m2 - 2.0 * RG * np.cos(qq + beta)
+        m = m0 - 2.0 * RG * np.cos(qq + beta)
         return (tau - s * (gG + RG * vv * vv)) / m, tau
 
     return accel
@@ -165,7 +166,7 @@ def _rk4_step(accel, q, v, h, h2, record_work):
     return q_new, v_new, power
 
 
-def _stiction_rows(model: PlanarEquation, law, params, etor, q, v, q_new, v_new, h, band, slope0, stiff_rows):
+def _stiction_rows(model: PlanarEquation, law, params, etor, q, v, q_new, v_new, h, band, slope0, stiff_rows, m0):
     """Replace the RK4 step by the implicit one on the rows that need it (in place in q_new,
     v_new).  Returns None when no row was inside its stiff band or crossing zero speed, else
     (rows replaced, their torque, their new rate)."""
@@ -175,7 +176,8 @@ def _stiction_rows(model: PlanarEquation, law, params, etor, q, v, q_new, v_new,
         return None
     idx = np.nonzero(flag)[0]
     sub = {k: (val[idx] if np.ndim(val) > 0 else val) for k, val in params.items()}
-    qi, vi, ti = implicit_step(model, friction_function(law, sub), etor, sub, q[idx], v[idx], h, slope0[idx])
+    m0_rows = m0[idx] if np.ndim(m0) > 0 else m0
+    qi, vi, ti = implicit_step(model, friction_function(law, sub), etor, sub, q[idx], v[idx], h, slope0[idx], m0_rows)
     # a crossing of zero speed that does not stick stays with RK4 (higher order);
     # inside the stiff band, or when the implicit step sticks, take the implicit one
     take = in_band[idx] | (np.abs(vi) < band[idx])
@@ -187,7 +189,7 @@ def _stiction_rows(model: PlanarEquation, law, params, etor, q, v, q_new, v_new,
 
 def rk4_stiction(model: PlanarEquation, law: str, params: Mapping, ffun, q, v, n: int, dt: float,
                  extra_torque: Callable | None = None, record_work: bool = False,
-                 band=None, slope0=None) -> Trajectory:
+                 band=None, slope0=None, inertia0=None) -> Trajectory:
     """The NumPy time loop: n RK4 steps of the batch (q, v: (B,)) with the implicit stiction
     step on the rows whose stiff `band` (from :func:`stiff_band`; None: no stiff rows) needs it.
 
@@ -195,12 +197,14 @@ def rk4_stiction(model: PlanarEquation, law: str, params: Mapping, ffun, q, v, n
         ffun: the law bound to `params` (:func:`friction_function`), or None.
         extra_torque: ``extra_torque(q, qd, params)``, added to the friction torque.
         record_work: also integrate the work of friction + extra torque.
+        inertia0: M0 per row (B,), or None for the model's.
     Returns:
         The :class:`Trajectory` at every step.
     """
     B = q.size
     h, h2 = dt, dt * dt
-    accel = _acceleration(model, ffun, extra_torque, params)
+    m0 = model.inertia0_kg_m2 if inertia0 is None else np.asarray(inertia0, dtype=float)
+    accel = _acceleration(model, ffun, extra_torque, params, m0)
     Q = np.empty((n + 1, B))
     V = np.empty((n + 1, B))
     W = np.zeros((n + 1, B)) if record_work else None
@@ -213,7 +217,7 @@ def rk4_stiction(model: PlanarEquation, law: str, params: Mapping, ffun, q, v, n
         if record_work:
             work_new = work + (h / 6.0) * power
         if stiff_rows is not None:
-            fixed = _stiction_rows(model, law, params, extra_torque, q, v, q_new, v_new, h, band, slope0, stiff_rows)
+            fixed = _stiction_rows(model, law, params, extra_torque, q, v, q_new, v_new, h, band, slope0, stiff_rows, m0)
             if fixed is not None:
                 n_impl += 1
                 rows, ti, vi = fixed
@@ -227,13 +231,14 @@ def rk4_stiction(model: PlanarEquation, law: str, params: Mapping, ffun, q, v, n
     return Trajectory(np.arange(n + 1) * dt, Q, V, W, dt, n_impl)
 
 
-def implicit_step(model: PlanarEquation, ffun, etor, params, q, v, h, slope0):
-    """Backward-Euler step in velocity (gravity linearised in q); returns (q1, v1, tau(v1))."""
+def implicit_step(model: PlanarEquation, ffun, etor, params, q, v, h, slope0, inertia0=None):
+    """Backward-Euler step in velocity (gravity linearised in q); returns (q1, v1, tau(v1)).
+    `inertia0`: M0 of these rows (None: the model's)."""
     s = np.sin(q + model.offset_rad)
     c_ = np.cos(q + model.offset_rad)
     gG = model.g * model.mass_moment_kg_m
     RG = model.radius_m * model.mass_moment_kg_m
-    m = model.inertia0_kg_m2 - 2.0 * RG * c_
+    m = (model.inertia0_kg_m2 if inertia0 is None else inertia0) - 2.0 * RG * c_
     tau_o = -s * (gG + RG * v * v)
     e = 0.0
     if etor is not None:
@@ -273,13 +278,16 @@ def implicit_step(model: PlanarEquation, ffun, etor, params, q, v, h, slope0):
 
 
 def sample(traj: Trajectory, t, rows: slice | np.ndarray | None = None) -> np.ndarray:
-    """Cubic Hermite interpolation of q at times `t` (from the trajectory's start; (n_t,)).
+    """Cubic Hermite interpolation of q at times `t` (from the trajectory's start; (n_t,), or
+    (B_rows, n_t) for times of each row: :func:`sample_rows`).
 
     Returns (B_rows, n_t).  Times before the start give the initial value (the body is held
     until released); times after the end are an error of the caller (the trajectory is
     always integrated past the last requested time).
     """
     t = np.asarray(t, dtype=float)
+    if t.ndim == 2:
+        return sample_rows(traj, t, rows)
     Q = traj.q if rows is None else traj.q[:, rows]
     Vd = traj.qd if rows is None else traj.qd[:, rows]
     n = Q.shape[0] - 1
@@ -294,6 +302,22 @@ def sample(traj: Trajectory, t, rows: slice | np.ndarray | None = None) -> np.nd
     h11 = (u3 - u2)[:, None] * dt
     out = h00 * Q[k] + h10 * Vd[k] + h01 * Q[k + 1] + h11 * Vd[k + 1]
     return out.T
+
+
+def sample_rows(traj: Trajectory, t: np.ndarray, rows: slice | np.ndarray | None = None) -> np.ndarray:
+    """:func:`sample` with times of each row, `t` (B_rows, n_t) (e.g. releases whose instant is
+    fitted per walker); returns (B_rows, n_t)."""
+    Q = traj.q if rows is None else traj.q[:, rows]
+    Vd = traj.qd if rows is None else traj.qd[:, rows]
+    n = Q.shape[0] - 1
+    dt = traj.dt
+    tc = np.clip(t, 0.0, n * dt)
+    k = np.minimum((tc / dt).astype(int), n - 1)
+    u = (tc - k * dt) / dt
+    u2, u3 = u * u, u * u * u
+    c = np.arange(Q.shape[1])[:, None]
+    return ((2 * u3 - 3 * u2 + 1) * Q[k, c] + (u3 - 2 * u2 + u) * dt * Vd[k, c]
+            + (-2 * u3 + 3 * u2) * Q[k + 1, c] + (u3 - u2) * dt * Vd[k + 1, c])
 
 
 # ---------------------------------------------------------------------------------------------

@@ -134,10 +134,11 @@ def _run_kernel(accel, implicit):
     from numba import njit, prange
 
     @njit(parallel=True)
-    def run(P, q0, v0, band, slope0, h, nrow, gG, beta, const_m, M0, RG, m, Q, V, n_impl):
-        inv_m0 = 1.0 / M0
+    def run(P, q0, v0, band, slope0, h, nrow, gG, beta, const_m, M0s, RG, m, Q, V, n_impl):
         h2 = h * h
         for r in prange(q0.size):
+            M0 = M0s[r]                 # the row's inertia (a calibrated stand adds to it)
+            inv_m0 = 1.0 / M0
             p = P[r]
             q = q0[r]
             v = v0[r]
@@ -181,10 +182,12 @@ def _run_kernel(accel, implicit):
 
 
 def integrate_rows(model, law: str, params: dict, q0: np.ndarray, v0: np.ndarray, n: int, dt: float,
-                   band: np.ndarray, slope0: np.ndarray, n_rows: np.ndarray | None = None):
+                   band: np.ndarray, slope0: np.ndarray, n_rows: np.ndarray | None = None, inertia0=None):
     """Integrate B rows for n steps (or row r for ``n_rows[r] <= n`` steps, holding its last
-    state after); returns (Q, V) of shape (B, n + 1) and the most implicit steps of any row."""
+    state after); returns (Q, V) of shape (B, n + 1) and the most implicit steps of any row.
+    `inertia0`: M0 per row (B,) (None: the model's)."""
     B = q0.size
+    M0 = np.broadcast_to(np.asarray(model.inertia0_kg_m2 if inertia0 is None else inertia0, dtype=float), (B,))
     names = friction.PARAMS[law]
     law_args = inspect.signature(getattr(friction, law)).parameters    # a missing v_tol: the law's default
     P = np.empty((B, len(names)))
@@ -198,7 +201,7 @@ def integrate_rows(model, law: str, params: dict, q0: np.ndarray, v0: np.ndarray
     run(P, np.ascontiguousarray(q0, dtype=float), np.ascontiguousarray(v0, dtype=float),
         np.ascontiguousarray(band, dtype=float), np.ascontiguousarray(slope0, dtype=float),
         float(dt), nrow, float(model.g * model.mass_moment_kg_m), float(model.offset_rad),
-        bool(model.constant_inertia), float(model.inertia0_kg_m2),
+        bool(model.constant_inertia), np.ascontiguousarray(M0),
         float(model.radius_m * model.mass_moment_kg_m), scalar(), Q, V, n_impl)
     return Q, V, int(n_impl.max()) if B else 0
 

@@ -43,6 +43,14 @@ applied term reads
   whose linearisation at phi = 0 is eq. 4 (M(0) = M_eq, V''(0) ~ K_eq up to the lateral
   offset).  Rest at -beta = -0.0333 rad.
 
+Calibrated stand (the friction fits, :mod:`roboball.identify.friction.problem`): per batch row,
+an ``added_inertia`` delta_i (kg m^2) adds to M0 (a geared joint's reflected rotor inertia
+J N^2, which the URDF leaves out; in Drake the joint actuator's rotor inertia and gear ratio),
+a ``rest_offset`` (rad) is added to the measured angle (the model starts from q0 - offset and
+reports q + offset: an encoder zero, or equally a centre of mass turned about the joint axis,
+since for a stand, constant inertia and friction a function of speed, the two are one motion),
+and a ``release_shift`` (s) moves each release instant (:func:`simulate_segments`).
+
 The applied/extra generalised torque is a callable ``extra_torque(q, qd, params) -> array``
 (``params`` is the batch's parameter dict, so effect parameters travel with the walkers);
 :func:`injected_shell` wraps eq. 9 (:func:`roboball.physics.shell.injected_torque`).
@@ -211,7 +219,7 @@ def injected_shell(k_inject, c_inject) -> Callable:
 def integrate(model: PlanarModel, law: str, params: Mapping, q0, qd0, duration: float,
               dt: float = DEFAULT_DT, extra_torque: Callable | None = None,
               record_work: bool = False, stiff_kappa: float = STIFF_KAPPA, compiled: bool = True,
-              row_durations=None) -> Trajectory:
+              row_durations=None, added_inertia=None) -> Trajectory:
     """Integrate a batch of B initial states (q0, qd0: (B,)) for `duration` seconds.
 
     `params` maps parameter names to scalars or (B,) arrays (friction law parameters and any
@@ -224,6 +232,7 @@ def integrate(model: PlanarModel, law: str, params: Mapping, q0, qd0, duration: 
     results to ~1e-12 rad); ``compiled=False`` forces the NumPy loop.  ``row_durations`` (B,)
     lets the compiled loop stop a row early (it then holds its last state); the NumPy loop
     integrates every row for `duration` (a caller reads each row only up to its own end).
+    ``added_inertia`` (a number or (B,)) adds to M0 row by row (None: the model's M0).
     """
     if not (dt > 0 and math.isfinite(dt)):
         raise RoboballError(f"reduced model: time step must be positive, got {dt}")
@@ -231,19 +240,21 @@ def integrate(model: PlanarModel, law: str, params: Mapping, q0, qd0, duration: 
     v = np.array(qd0, dtype=float).ravel() + np.zeros_like(q)
     B = q.size
     n = max(int(math.ceil(duration / dt - 1e-9)), 1)
+    m0 = None if added_inertia is None else model.inertia0_kg_m2 + np.broadcast_to(
+        np.asarray(added_inertia, dtype=float).ravel(), (B,))
     ffun = friction_function(law, params)
     if ffun is None:
-        return rk4_stiction(model, law, params, None, q, v, n, dt, extra_torque, record_work)
+        return rk4_stiction(model, law, params, None, q, v, n, dt, extra_torque, record_work, inertia0=m0)
     RG = model.radius_m * model.mass_moment_kg_m
-    m_min = model.inertia0_kg_m2 - 2.0 * RG
+    m_min = (model.inertia0_kg_m2 if m0 is None else m0) - 2.0 * RG
     band, slope0 = stiff_band(ffun, 1.0 / m_min, dt, stiff_kappa, B)
     if compiled and reduced_kernel.supports(law, extra_torque, record_work):
         # the same algorithm in machine code (roboball.reduced.kernel), rows in parallel
         n_rows = None if row_durations is None else \
             np.ceil(np.asarray(row_durations, dtype=float).ravel() / dt - 1e-9).astype(np.int64)
-        Qr, Vr, n_impl = reduced_kernel.integrate_rows(model, law, params, q, v, n, dt, band, slope0, n_rows)
+        Qr, Vr, n_impl = reduced_kernel.integrate_rows(model, law, params, q, v, n, dt, band, slope0, n_rows, m0)
         return Trajectory(np.arange(n + 1) * dt, Qr.T, Vr.T, None, dt, n_impl)
-    return rk4_stiction(model, law, params, ffun, q, v, n, dt, extra_torque, record_work, band, slope0)
+    return rk4_stiction(model, law, params, ffun, q, v, n, dt, extra_torque, record_work, band, slope0, m0)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -279,7 +290,7 @@ def _check_finite(y: np.ndarray, kind: str, law: str, params: dict) -> None:
 def simulate_stand(kind: str, t_eval, theta0, theta_dot0=0.0, law: str = "none",
                    params_batch: Mapping | None = None, extra_torque: Callable | None = None,
                    dt: float = DEFAULT_DT, *, t0: float | None = None, robot: RobotFacts | None = None,
-                   check_finite: bool = True) -> np.ndarray:
+                   check_finite: bool = True, added_inertia=None, rest_offset=0.0) -> np.ndarray:
     """Simulate a batch of releases of experiment `kind`; returns q at `t_eval`, shape (B, n_t).
 
     The body is released at time `t0` (default ``t_eval[0]``) from angle `theta0` with rate
@@ -288,7 +299,8 @@ def simulate_stand(kind: str, t_eval, theta0, theta_dot0=0.0, law: str = "none",
     to scalars or (B,) arrays, one entry per walker.  Times before `t0` return `theta0` (held).
     `kind` is ``steer_stand``, ``drive_stand`` or ``shell_rock`` (for the shell the friction
     law, if any, acts on the rolling rate; the shell's own terms go in `extra_torque`, e.g.
-    :func:`injected_shell`).  Raises SimulationError if the result is not finite (unless
+    :func:`injected_shell`).  `added_inertia` and `rest_offset` (numbers or (B,)) calibrate a
+    stand (module docstring).  Raises SimulationError if the result is not finite (unless
     ``check_finite=False``, when diverged rows come back as NaN/inf).
     """
     model = planar_model(kind, robot)
@@ -298,31 +310,46 @@ def simulate_stand(kind: str, t_eval, theta0, theta_dot0=0.0, law: str = "none",
     if not np.all(np.isfinite(t_eval)):
         raise RoboballError("simulate_stand: t_eval has non-finite times")
     t0 = float(t_eval[0]) if t0 is None else float(t0)
-    B = _batch_size(params_batch, theta0, theta_dot0)
+    B = _batch_size(params_batch, theta0, theta_dot0, added_inertia, rest_offset)
     params = _as_batch(params_batch, B)
     q0 = np.broadcast_to(np.asarray(theta0, dtype=float).ravel(), (B,)).copy() if np.size(theta0) in (1, B) else None
     if q0 is None:
         raise RoboballError(f"simulate_stand: theta0 has {np.size(theta0)} values for a batch of {B}")
     qd0 = np.broadcast_to(np.asarray(theta_dot0, dtype=float).ravel(), (B,)).copy()
+    offset = np.broadcast_to(np.asarray(rest_offset, dtype=float).ravel(), (B,))[:, None]
     duration = max(float(t_eval.max()) - t0, dt)
-    traj = integrate(model, law, params, q0, qd0, duration + dt, dt, extra_torque)
-    y = sample(traj, t_eval - t0)
+    traj = integrate(model, law, params, q0 - offset[:, 0], qd0, duration + dt, dt, extra_torque,
+                     added_inertia=added_inertia)
+    y = sample(traj, t_eval - t0) + offset
     if check_finite:
         _check_finite(y, kind, law, params)
     return y
 
 
+def _per_row(value, P: int, S: int, name: str) -> np.ndarray:
+    """A per-walker (P,) or per-walker-and-segment (P, S) array as rows (segment-major, P x S)."""
+    a = np.asarray(value, dtype=float)
+    if a.ndim == 2:
+        if a.shape != (P, S):
+            raise RoboballError(f"simulate_segments: {name} has shape {a.shape}, expected ({P}, {S})")
+        return a.T.ravel()
+    return np.tile(np.broadcast_to(a.ravel(), (P,)), S)
+
+
 def simulate_segments(kind: str, segments: Sequence[tuple], q0, law: str,
                       params_batch: Mapping | None = None, extra_torque: Callable | None = None,
                       dt: float = DEFAULT_DT, *, robot: RobotFacts | None = None,
-                      model: PlanarModel | None = None, check_finite: bool = False) -> list[np.ndarray]:
+                      model: PlanarModel | None = None, check_finite: bool = False,
+                      added_inertia=None, rest_offset=None, release_shift=None) -> list[np.ndarray]:
     """Simulate several releases for a batch of P parameter sets in ONE integration.
 
     `segments` is a list of S pairs ``(t, t_release)`` (sample times of the release's free
     response and the release instant, recording time base).  `q0` has shape (P, S) (or (S,)
     for all walkers alike): each release's initial angle per walker; each starts at rest.
     The P x S runs are integrated together (rows ordered segment-major) for the longest
-    segment's duration.  Returns S arrays of shape (P, len(t_s)).
+    segment's duration.  The calibrated stand (module docstring): `added_inertia` and
+    `rest_offset` per walker ((P,) or numbers), `release_shift` (P, S) in seconds, the body held
+    at its release angle until ``t_release + shift``.  Returns S arrays of shape (P, len(t_s)).
     """
     model = model if model is not None else planar_model(kind, robot)
     S = len(segments)
@@ -336,14 +363,20 @@ def simulate_segments(kind: str, segments: Sequence[tuple], q0, law: str,
         raise RoboballError(f"simulate_segments: initial angles have shape {q0.shape}, expected ({P}, {S})")
     params = _as_batch(params_batch, P)
     rows = {k: (np.tile(v, S) if np.ndim(v) > 0 else v) for k, v in params.items()}
-    durations = [float(np.max(t)) - float(tr) for t, tr in segments]
+    shift = np.zeros(P * S) if release_shift is None else _per_row(release_shift, P, S, "release_shift")
+    offset = np.zeros(P * S) if rest_offset is None else _per_row(rest_offset, P, S, "rest_offset")
+    extra_i = None if added_inertia is None else _per_row(added_inertia, P, S, "added_inertia")
+    durations = np.repeat([float(np.max(t)) - float(tr) for t, tr in segments], P) - shift
     # each segment's rows run for their own duration (plus a step for the interpolation)
-    row_d = np.repeat([max(d, dt) + dt for d in durations], P)
-    traj = integrate(model, law, rows, q0.T.ravel(), np.zeros(P * S), max(max(durations), dt) + dt, dt, extra_torque,
-                     row_durations=row_d)
+    row_d = np.maximum(durations, dt) + dt
+    traj = integrate(model, law, rows, q0.T.ravel() - offset, np.zeros(P * S), max(float(durations.max()), dt) + dt,
+                     dt, extra_torque, row_durations=row_d, added_inertia=extra_i)
     out = []
     for s, (t, tr) in enumerate(segments):
-        y = sample(traj, np.asarray(t, dtype=float) - float(tr), slice(s * P, (s + 1) * P))
+        sl = slice(s * P, (s + 1) * P)
+        t_rel = np.asarray(t, dtype=float) - float(tr)
+        times = t_rel if release_shift is None else t_rel[None, :] - shift[sl, None]
+        y = sample(traj, times, sl) + offset[sl, None]
         if check_finite:
             _check_finite(y, kind, law, params)
         out.append(y)

@@ -4,7 +4,7 @@ Reads what the pipeline already wrote and reruns nothing (no simulation, no fit)
 
 * joint friction posteriors: every fit JSON under results/friction/ (median and 95% interval of
   each parameter, chain convergence when recorded) and the model comparisons beside them
-  (*_comparison.csv, lowest BIC recommended);
+  (*_comparison.csv, the converged fit of lowest BIC recommended);
 * shell regressions (Fig. 10): results/identify/shell_regression.csv, plus what they give at the
   test pressures (zeta, omega_n, K_inject and C_inject of eq. 7-8, the hydroelastic modulus of
   eq. 10) from the robot facts;
@@ -20,6 +20,7 @@ import math
 from pathlib import Path
 
 from roboball.errors import RoboballError
+from roboball.identify.friction.comparison import recommendation
 from roboball.identify.friction.results import try_read_fit
 
 PRESSURES_KPA = (6.9, 10.3, 13.8, 17.2, 20.7)
@@ -76,14 +77,15 @@ def _friction(results: Path, missing: list) -> list:
     if comparisons:
         import pandas as pd
 
-        lines += ["", "Model comparison (lowest BIC recommended):", ""]
+        lines += ["", "Model comparison (lowest BIC of a converged chain recommended):", ""]
         for path in comparisons:
             c = pd.read_csv(path)
             if not {"law", "bic"} <= set(c.columns):
                 raise RoboballError(f"{path}: model comparison needs columns law, bic")
             c = c.sort_values("bic")
-            margin = f" by dBIC = {c.bic.iloc[1] - c.bic.iloc[0]:.1f}" if len(c) > 1 else ""
-            lines.append(f"- {path.parent.name}/{path.stem}: **{c.law.iloc[0]}**{margin} "
+            best, why = recommendation(c)
+            head = f"**{best.law}** {why}".rstrip() if best is not None else f"**{why}**"
+            lines.append(f"- {path.parent.name}/{path.stem}: {head} "
                          f"({', '.join(f'{r.law} {r.bic:.1f}' for r in c.itertuples())})")
     return lines + [""]
 

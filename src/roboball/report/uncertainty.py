@@ -13,6 +13,7 @@ import numpy as np
 import pandas as pd
 
 from roboball.atomic import write_text_atomic
+from roboball.identify.friction.comparison import recommendation
 from roboball.identify.friction.results import read_fit
 
 STAGES = ("uncertainty_report",)
@@ -43,44 +44,75 @@ def _img(path) -> str:
     return f'<figure><img src="data:image/png;base64,{data}" style="max-width:100%"><figcaption>{html.escape(p.name)}</figcaption></figure>'
 
 
-def _table(df: pd.DataFrame, floatfmt="{:.4g}") -> str:
+def _table(df: pd.DataFrame, floatfmt="{:.4g}", bad=None) -> str:
+    """An HTML table of `df`; rows where `bad` (a boolean sequence) is true are red."""
     head = "".join(f"<th>{html.escape(str(c))}</th>" for c in df.columns)
     rows = []
-    for r in df.itertuples(index=False):
+    flags = list(bad) if bad is not None else [False] * len(df)
+    for r, flag in zip(df.itertuples(index=False), flags):
         cells = "".join(f"<td>{floatfmt.format(v) if isinstance(v, (float, np.floating)) else html.escape(str(v))}</td>" for v in r)
-        rows.append(f"<tr>{cells}</tr>")
+        rows.append(f"<tr class='bad'>{cells}</tr>" if flag else f"<tr>{cells}</tr>")
     return f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(rows)}</tbody></table>"
 
 
-def _friction_section(fits: list, comparisons: list) -> list:
-    """Section 1: the friction posteriors, their chains' convergence and the model comparisons."""
-    parts = ["<h2>1. Joint friction (emcee posteriors)</h2>"]
-    rows, conv = [], []
+def _interval(p: dict, fmt: str = ".4g") -> str:
+    return f"{p['median']:{fmt}} [{p['ci95_low']:{fmt}}, {p['ci95_high']:{fmt}}]"
+
+
+def _fit_tables(fits: list) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
+    """(parameters, chains, stand calibration) of the friction fits, one row per parameter, fit
+    and fit; each with a boolean ``_bad`` column for the unconverged chains."""
+    rows, conv, calib = [], [], []
     for path in fits:
         f = read_fit(path)
+        c = f.convergence
+        bad = not c.get("converged", False)
         for name, p in f.parameters.items():
             if name.startswith("release"):
                 continue
             rows.append({"recording": f.recording, "joint": f.joint, "law": f.law, "parameter": name,
-                         "median": p["median"], "ci95_low": p["ci95_low"], "ci95_high": p["ci95_high"]})
-        c = f.convergence
+                         "median": p["median"], "ci95_low": p["ci95_low"], "ci95_high": p["ci95_high"], "_bad": bad})
         conv.append({"recording": f.recording, "joint": f.joint, "law": f.law,
                      "steps": c["steps"], "max_tau_steps": c["max_tau"],
                      "chain_over_tau": c.get("chain_over_tau", float("nan")),
                      "acceptance": c["acceptance_fraction"], "ess_min": c["ess_min"],
-                     "converged": "yes" if c["converged"] else "NO", "rmse_rad": f.stats["rmse_rad"]})
-    parts.append(_table(pd.DataFrame(rows)))
-    parts.append("<h3>Convergence</h3><p>A chain counts as converged when its length is at least "
-                 "<code>friction.autocorr_multiple</code> (50) integrated autocorrelation times of every parameter.</p>")
-    parts.append(_table(pd.DataFrame(conv)))
-    parts.append("<h3>Model comparison</h3>")
+                     "converged": "yes" if not bad else "NO", "wall_s": f.timing.get("wall_s", float("nan")),
+                     "rmse_rad": f.stats["rmse_rad"], "_bad": bad})
+        stand = f.stand()
+        if stand:
+            calib.append({"recording": f.recording, "joint": f.joint, "law": f.law,
+                          "delta_i (kg m^2)": _interval(stand["delta_i"]),
+                          "rest_offset (rad)": _interval(stand["rest_offset"]),
+                          "release shifts (s)": ", ".join(f"{s:+.3f}" for s in (f.release_shift_medians() or [])),
+                          "_bad": bad})
+    return pd.DataFrame(rows), pd.DataFrame(conv), pd.DataFrame(calib)
+
+
+def _flagged(df: pd.DataFrame) -> str:
+    return _table(df.drop(columns="_bad"), bad=df["_bad"]) if not df.empty else "<p><em>none</em></p>"
+
+
+def _friction_section(fits: list, comparisons: list) -> list:
+    """Section 1: the friction posteriors, the stand's calibration, the chains' convergence and
+    the model comparisons (unconverged chains in red, never recommended)."""
+    params, conv, calib = _fit_tables(fits)
+    parts = ["<h2>1. Joint friction (emcee posteriors)</h2>",
+             "<p>Each law is fitted on the calibrated stand: the stand's added inertia <code>delta_i</code> "
+             "(the gearbox's reflected rotor inertia J N<sup>2</sup>, which the URDF leaves out, net of the "
+             "URDF's own inertia error) and its <code>rest_offset</code> are fitted with the law, and so is each "
+             "release's instant. Rows in red belong to a chain that did not converge.</p>",
+             _flagged(params), "<h3>Stand calibration (median [95% interval])</h3>", _flagged(calib),
+             "<h3>Convergence</h3><p>A chain counts as converged when its length is at least "
+             "<code>friction.autocorr_multiple</code> (50) integrated autocorrelation times of every parameter.</p>",
+             _flagged(conv), "<h3>Model comparison</h3>"]
     for path in comparisons:
         cmp_ = pd.read_csv(path)
-        best = cmp_.sort_values("bic").iloc[0]
-        second = cmp_.sort_values("bic").iloc[1] if len(cmp_) > 1 else None
-        margin = f" by &Delta;BIC = {second.bic - best.bic:.1f}" if second is not None else ""
-        parts.append(f"<p><b>{html.escape(Path(path).stem)}</b>: recommended law <b>{best.law}</b>{margin}.</p>")
-        parts.append(_table(cmp_))
+        best, why = recommendation(cmp_)
+        head = (f"recommended law <b>{html.escape(best.law)}</b> {html.escape(why)}" if best is not None
+                else f"<span class='bad'>{html.escape(why)}</span>")
+        parts.append(f"<p><b>{html.escape(Path(path).stem)}</b>: {head}.</p>")
+        unconverged = ~cmp_["converged"].astype(bool) if "converged" in cmp_ else None
+        parts.append(_table(cmp_, bad=unconverged))
     return parts
 
 

@@ -247,6 +247,7 @@ def _add_robot(plant: MultibodyPlant, spec: SimSpec, robot: RobotFacts, urdf: st
     plant; returns the ground's slope (rad)."""
     lay = _LAYOUT[spec.kind]
     Parser(plant).AddModelsFromString(urdf, "urdf")
+    _add_rotors(plant, spec, robot)
     if lay["welded"]:
         plant.WeldFrames(plant.world_frame(), plant.GetFrameByName(lay["root"]))
         alpha = 0.0
@@ -254,22 +255,29 @@ def _add_robot(plant: MultibodyPlant, spec: SimSpec, robot: RobotFacts, urdf: st
         ramp = spec.ramp_angle_deg if spec.ramp_angle_deg is not None else robot.ramp_angle_deg
         alpha = _ground(plant, robot, spec.kind, ramp, spec.ramp_length_m, spec.heading_deg)
     plant.mutable_gravity_field().set_gravity_vector([0.0, 0.0, -robot.g])
-    _add_rotors(plant, spec, robot)
     plant.Finalize()
     return alpha
 
 
 def _add_rotors(plant: MultibodyPlant, spec: SimSpec, robot: RobotFacts) -> None:
-    """A joint actuator per joint of `spec.reflected_inertia`, with the robot facts' gear ratio N
-    and the rotor inertia that reflects the given inertia (J = value / N^2): Drake adds J N^2 to
-    the joint's diagonal of the mass matrix.  No actuation is applied (the port reads zero)."""
-    for joint, inertia in spec.reflected_inertia.items():
-        if not plant.HasJointNamed(joint):
-            raise ValueError(f"no joint '{joint}' in the {spec.kind} scenario for a reflected inertia")
-        ratio = float(robot.joints[joint]["gear_ratio"])
-        actuator = plant.AddJointActuator(f"{joint}_motor", plant.GetJointByName(joint))
-        actuator.set_default_gear_ratio(ratio)
-        actuator.set_default_rotor_inertia(float(inertia) / ratio ** 2)
+    """A joint actuator on each joint given an added inertia, whose rotor (inertia delta_i / N^2
+    behind the joint's gear ratio N, configs/robot.yaml) adds its reflected inertia N^2 J =
+    delta_i to the joint's diagonal of the mass matrix.  A negative delta_i (a fit's correction
+    of the URDF's inertia, configs/priors.yaml; never a rotor) is added the same way.  The
+    actuation input is left unconnected (no motor torque: the generalised forces are applied
+    through their own port)."""
+    for joint, delta_i in spec.added_inertia.items():
+        if not delta_i:
+            continue
+        if joint not in robot.joints:
+            raise ValueError(f"added inertia on unknown joint '{joint}' (choose from {', '.join(robot.joints)})")
+        j = plant.GetJointByName(joint)
+        if j.num_velocities() != 1:
+            continue                      # locked in this scenario: nothing turns the rotor
+        n = float(robot.joints[joint]["gear_ratio"])
+        motor = plant.AddJointActuator(f"{joint}_motor", j)
+        motor.set_default_gear_ratio(n)
+        motor.set_default_rotor_inertia(float(delta_i) / n ** 2)
 
 
 def _joint_friction(spec: SimSpec, robot: RobotFacts) -> list[ForceTerm]:

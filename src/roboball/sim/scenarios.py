@@ -127,6 +127,8 @@ def describe(spec: SimSpec, t: float | None = None) -> str:
     parts = [f"scenario {spec.kind}", f"contact {spec.contact}", f"friction {spec.friction}"]
     if spec.friction_params:
         parts.append(f"friction params {spec.friction_params}")
+    if spec.added_inertia:
+        parts.append(f"added inertia {spec.added_inertia} kg m^2")
     parts += [f"pressure {spec.pressure_kpa} kPa", f"dt {spec.dt} s"]
     sp = spec.shell
     for name in ("zeta", "omega_n", "hydro_modulus", "hydro_dissipation"):
@@ -227,6 +229,23 @@ def simulate(spec: SimSpec, release: float, duration: float, sample_rate_hz: flo
         cols[name] = np.asarray(sig.get(name, np.zeros_like(times)), dtype=float)
     df = pd.DataFrame(cols)
     return (df, log.data()) if return_states else df
+
+
+def simulate_calibrated_stand(spec: SimSpec, release: float, duration: float, rest_offset: float = 0.0,
+                              **kw) -> pd.DataFrame:
+    """A stand run as the friction fits' calibrated stand has it (roboball.reduced.planar): the
+    spec's ``added_inertia`` on the joint's rotor, and the measured angle the joint angle plus
+    `rest_offset` (an encoder's zero; for a stand the same motion as a centre of mass turned
+    about the joint axis).  `release` is the measured release angle; the joint starts from
+    ``release - rest_offset``.  Other arguments as for :func:`simulate`."""
+    if spec.kind not in STANDS:
+        raise ValueError(f"a calibrated stand run needs a stand scenario, not '{spec.kind}'")
+    if kw.get("return_states"):
+        raise ValueError("a calibrated stand run returns its recording only")
+    df = simulate(spec, release - rest_offset, duration, **kw)
+    col = "steer_angle_rad" if spec.kind == "steer_stand" else "drive_angle_rad"
+    df[col] = df[col] + rest_offset
+    return df
 
 
 def energy(built: Built, x: np.ndarray) -> np.ndarray:

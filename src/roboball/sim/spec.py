@@ -49,6 +49,9 @@ class SimSpec:
     contact: str = "point"
     friction: dict = field(default_factory=lambda: {"steer": "none", "drive": "none"})
     friction_params: dict = field(default_factory=dict)   # joint -> params (default Table I)
+    # joint -> reflected rotor inertia J N^2 (kg m^2) the URDF leaves out (a calibrated stand's
+    # delta_i): a joint actuator with the joint's gear ratio N and rotor inertia delta_i / N^2
+    added_inertia: dict = field(default_factory=dict)
     pressure_kpa: float | None = None
     shell: ShellParams = field(default_factory=ShellParams)
     dt: float = 1e-3
@@ -73,10 +76,6 @@ class SimSpec:
     # differ by the step at which that system sees the plant's state, so the virtual test bed
     # keeps Drake's default and its campaign regenerates bit-for-bit.
     sampled_output_ports: bool = False
-    # joint -> inertia (kg m^2) added to the joint's own: its motor's reflected rotor inertia, a
-    # JointActuator with the robot facts' gear ratio N and rotor inertia value / N^2 (diagnosis:
-    # the added_inertia effect).  Empty: the URDF's joints have no actuator, as in the paper.
-    reflected_inertia: dict = field(default_factory=dict)
 
     def resolved_robot(self) -> RobotFacts:
         return self.robot if self.robot is not None else load_robot()

@@ -1,11 +1,13 @@
 """Joint-friction identification on stand recordings: least squares, then emcee posteriors.
 
-Model: ONE friction law (roboball.physics.friction) on ONE joint, in the reduced stand model
-of :mod:`roboball.reduced.planar` (steer stand: viscous, coulomb_viscous or majd; drive stand:
-any law, the paper fits majd).  Data: every release of a stand recording at once, a list of
-segments (t, y, release) with y the measured joint angle from the release instant to the end
-of the free response (:mod:`~roboball.identify.friction.segments`).  Each release starts from
-rest at an initial angle that is a nuisance parameter (:mod:`~roboball.identify.friction.problem`).
+Model: ONE friction law (roboball.physics.friction) on ONE joint, in the calibrated stand
+model of :mod:`roboball.reduced.planar` (steer stand: viscous, coulomb_viscous or majd; drive
+stand: any law, the paper fits majd): the stand's added inertia delta_i (the gearbox's
+reflected rotor inertia, which the URDF leaves out) and its rest offset are fitted with the law.
+Data: every release of a stand recording at once, a list of segments (t, y, release) with y the
+measured joint angle from the release instant to the end of the free response
+(:mod:`~roboball.identify.friction.segments`).  Each release starts from rest at an initial
+angle and instant that are nuisance parameters (:mod:`~roboball.identify.friction.problem`).
 
 1. Least squares on the stacked residuals of all releases (:mod:`~roboball.identify.friction.lsq`),
    priors from ``configs/priors.yaml`` (:mod:`~roboball.identify.friction.priors`).
@@ -35,8 +37,8 @@ import pandas as pd
 from roboball.config import RobotFacts
 from roboball.errors import RoboballError
 from roboball.identify.friction.lsq import least_squares_fit
-from roboball.identify.friction.priors import law_priors
-from roboball.identify.friction.problem import FrictionProblem
+from roboball.identify.friction.priors import law_priors, stand_priors
+from roboball.identify.friction.problem import RELEASE_SHIFT_HALF_WIDTH_S, FrictionProblem
 from roboball.identify.friction.sampler import sample_posterior
 from roboball.identify.friction.segments import JOINT_OF_KIND, KIND_OF_JOINT, Segment, segments_from_arrays
 from roboball.identify.friction.summary import summarize
@@ -48,12 +50,17 @@ def fit_segments(kind: str, law: str, segments: Sequence, chain_path: str | os.P
                  autocorr_multiple: float = 50.0, max_steps: int = 20000, dt: float | None = None,
                  chunk: int = 50, robot: RobotFacts | None = None, fixed: Mapping | None = None,
                  source: str = "data", moves=None, min_steps: int = 100,
-                 sample_angles: bool = True, stale: str = "refuse", code: str | None = None) -> tuple[dict, pd.DataFrame]:
+                 sample_angles: bool = True, stale: str = "refuse", code: str | None = None,
+                 release_shift_s: float = RELEASE_SHIFT_HALF_WIDTH_S) -> tuple[dict, pd.DataFrame]:
     """Full fit of `law` on stand `kind` from segments (:func:`segments_from_arrays` input or
     :class:`Segment` list): least squares, step choice, emcee to convergence, summary.
 
+    `priors` gives the law's and the stand's priors (:func:`law_priors`, :func:`stand_priors`);
+    `fixed` holds any of their parameters at a value (``{"delta_i": 0, "rest_offset": 0}``: the
+    stand as its URDF says).  `release_shift_s`: the half-width of the release instants' prior
+    (0: the instants are the release finder's).
     `dt` None chooses the RK4 step at the least-squares optimum (:func:`choose_dt`).
-    `sample_angles` True (default) marginalises the release angles in the posterior.  False
+    `sample_angles` True (default) marginalises the release states in the posterior.  False
     conditions on their least-squares values: cheaper, but the friction levels are correlated
     with the release amplitudes, so the conditional intervals come out too narrow (by ~40% for
     f_w, f_c of a Majd fit in the tests); use it only for quick looks.
@@ -66,13 +73,14 @@ def fit_segments(kind: str, law: str, segments: Sequence, chain_path: str | os.P
         raise RoboballError(f"{source}: friction fits need a stand recording (steer_stand or drive_stand), "
                             f"not '{kind}'")
     segs = segments if all(isinstance(s, Segment) for s in segments) else segments_from_arrays(segments, source)
-    pri = law_priors(joint, law, priors, source=str(priors) if isinstance(priors, (str, os.PathLike)) else "priors")
-    problem = FrictionProblem(kind, law, segs, pri, fixed=fixed, robot=robot,
-                              dt=dt or DT_CANDIDATES[0])
+    where = str(priors) if isinstance(priors, (str, os.PathLike)) else "priors"
+    problem = FrictionProblem(kind, law, segs, law_priors(joint, law, priors, source=where), fixed=fixed,
+                              robot=robot, dt=dt or DT_CANDIDATES[0], stand=stand_priors(joint, priors, source=where),
+                              shift_half_width=release_shift_s)
     lsq, dt_info = _least_squares_and_step(problem, dt, seed)
     t_lsq = time.perf_counter() - t_start
     if not sample_angles:
-        problem.fix_angles(lsq["x"][problem.n_law:])
+        problem.fix_releases(lsq["x"][problem.n_phys:])
     walkers = max(int(walkers), 2 * problem.ndim + 2)
     post = sample_posterior(problem, lsq, chain_path, seed=seed, n_walkers=walkers,
                             autocorr_multiple=autocorr_multiple, max_steps=max_steps, chunk=chunk,

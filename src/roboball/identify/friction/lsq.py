@@ -1,4 +1,5 @@
-"""Least squares of a friction law and the release angles on all releases at once.
+"""Least squares of a friction law, the stand's calibration and the release states on all
+releases at once.
 
 scipy ``least_squares`` (trust-region reflective within the prior bounds) on the stacked
 residuals y_sim - y.  Positive law parameters are fitted as their logarithms (positivity, and
@@ -17,7 +18,9 @@ from roboball.identify.friction.problem import FrictionProblem
 
 
 def _fd_steps(problem: FrictionProblem) -> np.ndarray:
-    return np.concatenate([np.full(problem.n_law, 1e-4), np.full(problem.S, 1e-5)])
+    """Difference steps: 1e-4 in a logarithm, 1e-5 in rad, s or kg m^2."""
+    return np.concatenate([[1e-5 if p.linear else 1e-4 for p in problem.priors],
+                           np.full(problem.release_data.size, 1e-5)])
 
 
 def _starts(problem: FrictionProblem, rng: np.random.Generator, lo: np.ndarray, hi: np.ndarray,
@@ -25,9 +28,9 @@ def _starts(problem: FrictionProblem, rng: np.random.Generator, lo: np.ndarray, 
     """The priors' start, plus the best prior draws that already beat it (a start in the wrong
     basin), all candidates scored in one batched evaluation; most fits need one run."""
     x_start = np.clip(problem.start_point(), lo + 1e-9, hi - 1e-9)
-    cand = np.tile(problem.q0_data, (n_candidates, 1))
+    cand = np.tile(problem.release_data, (n_candidates, 1))
     cand = np.concatenate([np.column_stack([p.sample_u(rng, n_candidates) for p in problem.priors])
-                           if problem.n_law else np.zeros((n_candidates, 0)), cand], axis=1)
+                           if problem.n_phys else np.zeros((n_candidates, 0)), cand], axis=1)
     allc = np.vstack([x_start[None, :], cand])
     r = problem.residuals(allc)
     cost = np.where(np.all(np.isfinite(r), axis=1), 0.5 * np.sum(r * r, axis=1), np.inf)
@@ -67,13 +70,16 @@ def _laplace_cov(problem: FrictionProblem, J: np.ndarray, sigma_hat: float) -> n
         a, b = p.interval95_u()
         prior_prec.append(1.0 / max(((b - a) / 3.92) ** 2, 1e-12))
     prior_prec += [1.0 / (problem.half_width / 2) ** 2] * problem.S
+    if problem.shifts_fitted:
+        prior_prec += [1.0 / (problem.shift_half_width / 2) ** 2] * problem.S
     H = J.T @ J / max(sigma_hat, 1e-12) ** 2 + np.diag(prior_prec)
     return np.linalg.pinv(H)
 
 
 def least_squares_fit(problem: FrictionProblem, seed: int = 0, n_candidates: int = 64, n_starts: int = 2,
                       max_nfev: int = 200) -> dict:
-    """Least-squares fit of the law parameters and release angles (see the module docstring).
+    """Least-squares fit of the law's and the stand's parameters and the release states (see the
+    module docstring).
 
     Args:
         problem: the fit problem (its step size ``dt`` is used).

@@ -20,6 +20,8 @@ from roboball.atomic import write_csv_atomic, write_json_atomic
 from roboball.errors import RoboballError
 
 SUMMARY_KEYS = ("median", "ci95_low", "ci95_high")     # what every reader of a parameter needs
+# The stand's calibration fitted with every law (roboball.reduced.planar: calibrated stand).
+STAND_PARAMS = ("delta_i", "rest_offset")
 
 
 def write_fit(out_json: str, out_samples: str, result: dict, samples) -> None:
@@ -51,7 +53,9 @@ class FrictionFit:
     summary (``median``, ``ci95_low``, ``ci95_high``, ``map``, ...); ``convergence`` holds the
     chain diagnostics ({} when none were recorded; keys ``converged``, ``steps``, ``burn_in``,
     ``max_tau``, ``chain_over_tau``, ``ess_min``, ``acceptance_fraction``, ...) and ``stats``
-    the fit statistics (the file's ``fit``: ``rmse_rad``, ``loglik_max``, ``bic``, ...).
+    the fit statistics (the file's ``fit``: ``rmse_rad``, ``loglik_max``, ``bic``, ...).  The
+    stand's calibration (``delta_i``, ``rest_offset``) is among the parameters when it was
+    fitted, among ``fixed`` when it was held (:meth:`stand`).
     """
 
     path: Path
@@ -64,6 +68,30 @@ class FrictionFit:
     stats: dict
     release_angles: list | None         # posterior summaries of the release angles, in release order
     samples_csv: str | None
+    release_shifts: list | None = None  # posterior summaries of the release instants' shifts (s)
+    timing: dict | None = None          # wall_s, least_squares_s, ... of the fit
+
+    def stand(self) -> dict:
+        """The stand's calibration, {"delta_i": summary, "rest_offset": summary} (a held value
+        as a summary of zero width); {} for a fit without one (made before it existed)."""
+        out = {}
+        for name in STAND_PARAMS:
+            if name in self.parameters:
+                out[name] = self.parameters[name]
+            elif name in self.fixed:
+                v = float(self.fixed[name])
+                out[name] = {"median": v, "ci95_low": v, "ci95_high": v}
+        return out
+
+    def stand_values(self) -> dict:
+        """The calibrated stand a simulation of this fit runs with: posterior medians (or held
+        values) of ``delta_i`` and ``rest_offset``, 0 where the fit has none."""
+        st = self.stand()
+        return {name: float(st[name]["median"]) if name in st else 0.0 for name in STAND_PARAMS}
+
+    def release_shift_medians(self) -> list | None:
+        """Fitted shifts of the release instants (s), in release order; None if not fitted."""
+        return [a["median"] for a in self.release_shifts] if self.release_shifts else None
 
     def medians(self, names: Collection[str]) -> dict:
         """Posterior medians of the parameters among `names` (e.g. the law's) that were sampled."""
@@ -100,7 +128,8 @@ def _checked(d: dict, path) -> FrictionFit:
             if not isinstance(p, dict) or key not in p:
                 raise RoboballError(f"{path}: parameter '{name}' has no '{key}'")
     return FrictionFit(Path(path), d["joint"], d["law"], d.get("recording", ""), params, d.get("fixed", {}),
-                       d.get("convergence") or {}, d.get("fit", {}), d.get("release_angles"), d.get("samples_csv"))
+                       d.get("convergence") or {}, d.get("fit", {}), d.get("release_angles"), d.get("samples_csv"),
+                       d.get("release_shifts_s"), d.get("timing") or {})
 
 
 def is_fit(d) -> bool:

@@ -1,11 +1,12 @@
 """The emcee posterior of a friction fit, run (or resumed) until it has converged.
 
-Sampled: every law parameter, the noise level sigma and the release angles (marginalised: the
-friction levels are correlated with the release amplitudes, so conditioning on fitted angles
-would give too-narrow intervals).  Walkers start from the least-squares Laplace
-approximation; differential-evolution moves adapt, then an independence proposal
-(multivariate t fitted to the samples so far, refitted once, then frozen) mixed with DE moves
-samples (:mod:`roboball.identify.friction.moves`).  All walkers of a proposal are simulated in
+Sampled: every law parameter, the stand's calibration, the noise level sigma and the release
+states (marginalised: the friction levels are correlated with the release amplitudes, so
+conditioning on fitted angles would give too-narrow intervals).  Walkers start from the
+least-squares Laplace approximation; differential-evolution moves adapt, then an independence
+proposal (multivariate t fitted to the samples so far, refitted at each stage of
+:data:`ADAPT_SCHEDULE`, then frozen) mixed with DE moves samples
+(:mod:`roboball.identify.friction.moves`).  All walkers of a proposal are simulated in
 one vectorised call (``vectorize=True``).  The chain is stored with
 ``emcee.backends.HDFBackend``; an interrupted run resumes from the stored chain and its random
 state (:mod:`roboball.identify.friction.chain`).
@@ -34,8 +35,13 @@ from roboball.identify.friction.problem import FrictionProblem
 from roboball.metrics import burn_and_tau
 
 # Adaptation: DE moves up to the first step count, then an independence proposal fitted to the
-# DE samples, refitted at the second count to its own (far less correlated) samples and frozen.
-ADAPT_SCHEDULE = (100, 200)
+# DE samples, refitted at each later count to its own (far less correlated) samples, and frozen
+# at the last.  The third stage matters where the least squares start far from the posterior's
+# bulk (the real steer log's Majd fit: its least squares stop at f_c = 0.49 N m, the posterior
+# lies below 0.07): a proposal fitted while the walkers still drift sticks walkers in the
+# regions it under-proposes (slowest tau 69-85 steps, not converged in 2500 steps, with two
+# stages; 18 steps, converged at 1450, with three).
+ADAPT_SCHEDULE = (100, 200, 400)
 
 
 @dataclass(frozen=True)
@@ -97,8 +103,8 @@ def _initial_walkers(problem: FrictionProblem, lsq: dict, n_walkers: int, rng: n
     """Walkers drawn from the least-squares Laplace approximation, inside the prior support."""
     x = lsq["x"]
     cov = lsq["cov"]
-    if not problem.angles_sampled:      # conditional on the angles: inverse of the law block of H
-        k = problem.n_law
+    if not problem.releases_sampled:    # conditional on the release states: inverse of H's other block
+        k = problem.n_phys
         x = x[:k]
         cov = np.linalg.pinv(np.linalg.pinv(cov)[:k, :k])
     w, V = np.linalg.eigh(0.5 * (cov + cov.T))
@@ -109,7 +115,7 @@ def _initial_walkers(problem: FrictionProblem, lsq: dict, n_walkers: int, rng: n
         z = rng.standard_normal((4 * n_walkers, x.size))
         X = x[None, :] + z @ L.T
         s = sig_u + rng.standard_normal((4 * n_walkers, 1)) / math.sqrt(2 * problem.N)
-        U = np.concatenate([X[:, :problem.n_law], s, X[:, problem.n_law:]], axis=1)
+        U = np.concatenate([X[:, :problem.n_phys], s, X[:, problem.n_phys:]], axis=1)
         U = U[np.isfinite(problem.log_prior(U))]
         out = np.vstack([out, U])
         if out.shape[0] >= n_walkers:
@@ -138,7 +144,7 @@ def _make_sampler(problem: FrictionProblem, backend, plan: _Plan, stage: int):
     elif stage == 0:
         mv = default_moves(plan.n_walkers, problem.ndim)
     else:
-        mv = adapted_moves(backend.get_chain(), stage, plan.schedule)
+        mv = adapted_moves(backend.get_chain(), stage, plan.schedule, problem.priors)
     return emcee.EnsembleSampler(plan.n_walkers, problem.ndim, problem.log_prob, vectorize=True,
                                  backend=backend, moves=mv)
 
@@ -208,10 +214,10 @@ def sample_posterior(problem: FrictionProblem, lsq: dict, chain_path: str | os.P
     the DE samples, refitted at each later count of the schedule to the samples since the
     previous one.  Production, from ``adapt_schedule[-1]`` on: the last proposal, frozen, mixed
     with DE moves.  On the test bed's Majd steer fit this cut the integrated autocorrelation
-    time from about 37 steps (DE alone) to about 14.  Burn-in and tau are measured on the
-    production phase only (burn-in >= ``adapt_schedule[-1]``), so the reported samples come
-    from one fixed kernel.  Given `moves`, one phase with those moves (burn-in from the whole
-    chain).
+    time from about 37 steps (DE alone) to about 14 (:data:`ADAPT_SCHEDULE` for the third
+    stage).  Burn-in and tau are measured on the production phase only (burn-in >=
+    ``adapt_schedule[-1]``), so the reported samples come from one fixed kernel.  Given
+    `moves`, one phase with those moves (burn-in from the whole chain).
 
     Args:
         code: identity of the source code that computes the log-probability, stored with the

@@ -5,12 +5,19 @@ autocorrelation time and effective sample size n_walkers x n_after_burn / tau.  
 statistics: residual RMS, log-likelihood at the MAP sample and its maximum, BIC (k ln N -
 2 ln L_max, k counting law parameters, sigma and release angles) and WAIC from posterior draws.
 
+Reported with the law: the stand's calibration (``delta_i``, ``rest_offset``) when it was
+fitted, and each release's angle and instant shift.  A Majd fit samples its stiction peak
+(``h_peak``, ``v_peak``) in place of sigma and omega_c (:mod:`roboball.physics.friction`);
+those are reported too, derived from each sample (``"derived"``: no prior, no identifiability
+of their own).
+
 Identifiability.  Some Majd parameters are poorly constrained by swing decays: with n = 1 the
 sigma terms of eq. 3 cancel exactly (the law does not depend on sigma), and near n = 1 only
-sigma (n - 1) is identified.  Nothing is fixed behind the user's back: such parameters are
-sampled under their prior, and each is reported with ``identifiability`` = posterior 95% width
-/ prior 95% width (log scale for positive parameters); above 0.5 it is flagged
-``weakly_identified`` and listed in ``notes`` (its interval then mostly restates the prior).
+sigma (n - 1) is identified, hence the sampled peak.  Nothing is fixed behind the user's
+back: such parameters are sampled under their prior, and each is reported with
+``identifiability`` = posterior 95% width / prior 95% width (log scale for positive
+parameters); above 0.5 it is flagged ``weakly_identified`` and listed in ``notes`` (its
+interval then mostly restates the prior).
 """
 from __future__ import annotations
 
@@ -19,7 +26,7 @@ import math
 import numpy as np
 import pandas as pd
 
-from roboball.identify.friction.priors import Prior
+from roboball.identify.friction.priors import STAND_UNITS, Prior
 from roboball.identify.friction.problem import FrictionProblem
 from roboball.identify.friction.segments import JOINT_OF_KIND
 from roboball.physics import friction
@@ -29,18 +36,19 @@ INTEGRATION = "RK4 + implicit stiction step (roboball.reduced.planar, compiled l
 
 
 def _natural(problem: FrictionProblem, U: np.ndarray) -> np.ndarray:
-    """Sampling coordinates -> natural units (law parameters, sigma; angles unchanged)."""
+    """Sampling coordinates -> natural units (law and stand parameters, the noise level; the
+    release states unchanged)."""
     Z = np.array(U, dtype=float, copy=True)
     for i, p in enumerate(problem.priors):
         Z[..., i] = p.theta(Z[..., i])
-    Z[..., problem.n_law] = np.exp(Z[..., problem.n_law])
+    Z[..., problem.n_phys] = np.exp(Z[..., problem.n_phys])
     return Z
 
 
 def _waic(problem: FrictionProblem, U: np.ndarray) -> float:
     """WAIC (deviance scale) from posterior draws U (one batched simulation)."""
     r = problem.residuals(problem.to_lsq(U))
-    sigma = np.exp(U[:, problem.n_law])[:, None]
+    sigma = np.exp(U[:, problem.n_phys])[:, None]
     ll = -np.log(sigma) - 0.5 * (r / sigma) ** 2 - 0.5 * math.log(2 * math.pi)
     ll = ll[np.all(np.isfinite(ll), axis=1)]
     if ll.shape[0] < 2:
@@ -67,7 +75,7 @@ def _prior_checks(entry: dict, name: str, pr: Prior, u: np.ndarray) -> list[str]
     """Add the prior and the identifiability ratio to `entry` (u: the posterior samples on the
     sampling coordinate); notes for a weakly identified parameter or one at a prior bound."""
     notes = []
-    entry["unit"] = friction.UNITS.get(name, "rad")
+    entry["unit"] = {**friction.UNITS, **STAND_UNITS}.get(name, "rad")
     entry["prior"] = pr.describe()
     a, b = pr.interval95_u()
     ul, uh = np.percentile(u, [2.5, 97.5])
@@ -85,35 +93,60 @@ def _prior_checks(entry: dict, name: str, pr: Prior, u: np.ndarray) -> list[str]
 
 
 def _parameters(problem: FrictionProblem, lsq: dict, post: dict, flat: np.ndarray,
-                U_map: np.ndarray) -> tuple[dict, list, list]:
-    """(law parameters and noise level by name, sampled release angles, notes)."""
+                U_map: np.ndarray) -> tuple[dict, dict, list]:
+    """(law and stand parameters and the noise level by name, sampled release states by kind
+    ("angles", "shifts"), notes)."""
     nat = _natural(problem, flat)
     map_nat = _natural(problem, U_map)
     x_lsq = lsq["x"]
+    k = problem.n_phys
     lsq_nat = np.concatenate([[p.theta(x_lsq[i]) for i, p in enumerate(problem.priors)], [lsq["sigma_hat"]],
-                              x_lsq[problem.n_law:]])
+                              x_lsq[k:]])
     n_after = post["chain"].shape[0] - post["burn"]
-    params, angles, notes = {}, [], []
+    params, releases, notes = {}, {"angles": [], "shifts": []}, []
     all_priors = problem.priors + [problem.noise_prior]
     for j, name in enumerate(problem.names):
         entry = _entry(nat[:, j], map_nat[j], lsq_nat[j], post["tau"][j], post["n_walkers"], n_after)
-        if j < problem.n_law + 1:
+        if j < k + 1:
             notes += _prior_checks(entry, name, all_priors[j], flat[:, j])
             params[name] = entry
         else:
-            entry["unit"] = "rad"
+            entry["unit"] = "s" if name.startswith("release_shift") else "rad"
             entry["source"] = "posterior (marginalised)"
-            angles.append(entry)
-    return params, angles, notes
+            releases["shifts" if name.startswith("release_shift") else "angles"].append(entry)
+    for name, col in _derived(problem, flat).items():
+        ref = [_derived(problem, U[None, :])[name][0] for U in (U_map, _sampling_point(problem, lsq))]
+        params[name] = _entry(col, ref[0], ref[1], np.nan, 0, 0)
+        params[name].update(unit=friction.UNITS[name], derived="from the sampled stiction peak "
+                            "(roboball.physics.friction.majd_from_peak)", identifiability=None, weakly_identified=False)
+    return params, releases, notes
 
 
-def _conditioned_angles(problem: FrictionProblem, lsq: dict) -> list[dict]:
-    """The release angles a conditional posterior held at their least-squares values."""
-    sd = np.sqrt(np.clip(np.diag(lsq["cov"])[problem.n_law:], 0, None))
-    return [{"median": float(q), "ci95_low": float(q - 1.96 * e), "ci95_high": float(q + 1.96 * e),
-             "map": float(q), "lsq": float(q), "unit": "rad",
-             "source": "least squares (Laplace interval); the posterior is conditioned on it"}
-            for q, e in zip(problem.q0_fixed, sd)]
+def _derived(problem: FrictionProblem, U: np.ndarray) -> dict:
+    """The law's own parameters that the fit does not sample (Majd's sigma and omega_c), per row
+    of sampling coordinates U."""
+    params = problem.law_params(U[:, :problem.n_phys])
+    return {name: np.broadcast_to(params[name], (U.shape[0],)) for name in friction.PARAMS[problem.law]
+            if name not in problem.law_names and name not in problem.fixed}
+
+
+def _sampling_point(problem: FrictionProblem, lsq: dict) -> np.ndarray:
+    """The least-squares optimum in sampling coordinates (its release states as they are)."""
+    x = lsq["x"]
+    return np.concatenate([x[:problem.n_phys], [np.log(lsq["sigma_hat"])], x[problem.n_phys:]])
+
+
+def _conditioned_releases(problem: FrictionProblem, lsq: dict) -> dict:
+    """The release states a conditional posterior held at their least-squares values."""
+    sd = np.sqrt(np.clip(np.diag(lsq["cov"])[problem.n_phys:], 0, None))
+    out = {"angles": [], "shifts": []}
+    for name, q, e in zip(problem.release_names, problem.release_fixed, sd):
+        shift = name.startswith("release_shift")
+        out["shifts" if shift else "angles"].append(
+            {"median": float(q), "ci95_low": float(q - 1.96 * e), "ci95_high": float(q + 1.96 * e),
+             "map": float(q), "lsq": float(q), "unit": "s" if shift else "rad",
+             "source": "least squares (Laplace interval); the posterior is conditioned on it"})
+    return out
 
 
 def _fit_statistics(problem: FrictionProblem, lsq: dict, flat: np.ndarray, U_map: np.ndarray, seed: int,
@@ -124,7 +157,7 @@ def _fit_statistics(problem: FrictionProblem, lsq: dict, flat: np.ndarray, U_map
     N = problem.N
     ll_max_lsq = -0.5 * N * (math.log(2 * math.pi * lsq["sigma_hat"] ** 2) + 1.0)
     ll_max = max(ll_max_lsq, ll_map)
-    k_bic = problem.n_law + 1 + problem.S         # law parameters, noise level, release angles
+    k_bic = problem.n_phys + 1 + len(problem.release_names)   # law and stand, noise level, release states
     rng = np.random.default_rng([seed, 3])
     draws = flat[rng.choice(flat.shape[0], min(n_waic_draws, flat.shape[0]), replace=False)]
     return {"rmse_rad": float(np.sqrt(np.mean(r_map ** 2))), "rmse_lsq_rad": float(lsq["rms"]),
@@ -155,11 +188,16 @@ def _convergence(problem: FrictionProblem, post: dict) -> dict:
 
 
 def _samples(problem: FrictionProblem, post: dict) -> pd.DataFrame:
-    """Law parameters and noise level after burn-in, thinned by half the slowest tau."""
+    """Law and stand parameters (and Majd's derived sigma and omega_c) and the noise level after
+    burn-in, thinned by half the slowest tau."""
     tau = post["tau"]
     thin = max(1, int(np.nanmax(tau) // 2)) if np.any(np.isfinite(tau)) else 1
     kept = post["chain"][post["burn"]::thin].reshape(-1, problem.ndim)
-    return pd.DataFrame(_natural(problem, kept)[:, :problem.n_law + 1], columns=problem.law_names + ["noise_rad"])
+    nat = _natural(problem, kept)[:, :problem.n_phys + 1]
+    df = pd.DataFrame(nat, columns=problem.phys_names + ["noise_rad"])
+    for name, col in _derived(problem, kept).items():
+        df.insert(problem.n_law, name, col)
+    return df
 
 
 def summarize(problem: FrictionProblem, lsq: dict, post: dict, seed: int = 0, n_waic_draws: int = 200,
@@ -174,18 +212,19 @@ def summarize(problem: FrictionProblem, lsq: dict, post: dict, seed: int = 0, n_
 
     Returns:
         The JSON-serialisable result (what a fit file holds, :mod:`roboball.identify.friction.results`)
-        and the flat posterior samples (law parameters and ``noise_rad``).
+        and the flat posterior samples (law and stand parameters and ``noise_rad``).
     """
     burn = post["burn"]
     flat = post["chain"][burn:].reshape(-1, problem.ndim)
     flat_lp = post["log_prob"][burn:].reshape(-1)
     U_map = flat[int(np.argmax(flat_lp))]
-    params, angles, notes = _parameters(problem, lsq, post, flat, U_map)
-    if not problem.angles_sampled:
-        angles += _conditioned_angles(problem, lsq)
-    if problem.law == "majd" and "n" in params and "sigma" in params and params["n"]["ci95_low"] < 1.1:
+    params, releases, notes = _parameters(problem, lsq, post, flat, U_map)
+    if not problem.releases_sampled:
+        releases = _conditioned_releases(problem, lsq)
+    if problem.law == "majd" and "n" in params and "h_peak" in params and params["n"]["ci95_low"] < 1.1:
         notes.append("majd: n reaches 1 within the 95% interval; at n = 1 the sigma terms of eq. 3 cancel, "
-                     "so sigma is only identified through sigma (n - 1)")
+                     "so sigma itself is not identified there (its interval is open upwards); the sampled "
+                     "stiction peak (h_peak, v_peak) is")
     fit_stats = _fit_statistics(problem, lsq, flat, U_map, seed, n_waic_draws)
     conv = _convergence(problem, post)
     if not post["converged"]:
@@ -194,9 +233,11 @@ def summarize(problem: FrictionProblem, lsq: dict, post: dict, seed: int = 0, n_
                      f"(required {post['autocorr_multiple']:g})")
     res = {"kind": problem.kind, "joint": JOINT_OF_KIND.get(problem.kind, problem.kind), "law": problem.law,
            "parameters": params, "fixed": {k_: float(v) for k_, v in problem.fixed.items()},
-           "release_angles": angles, "release_times_s": [float(s.t_release) for s in problem.segments],
+           "stand_calibrated": bool(problem.stand_names),
+           "release_angles": releases["angles"], "release_shifts_s": releases["shifts"],
+           "release_times_s": [float(s.t_release) for s in problem.segments],
            "fit": fit_stats, "convergence": conv,
            "integration": {"method": INTEGRATION, "dt_s": problem.dt, "step_error_rad": step_error},
-           "angles_sampled": problem.angles_sampled, "chain": post["chain_path"],
+           "angles_sampled": problem.releases_sampled, "chain": post["chain_path"],
            "seed": int(seed), "notes": notes}
     return res, _samples(problem, post)
