@@ -82,7 +82,7 @@ def check_priors(data: dict, source: str) -> dict:
                 field = f"{source}: field '{joint}.{law}.{name}'"
                 if not lo < hi:
                     raise ConfigError(f"{field}: low {lo:g} is not below high {hi:g}; swap or fix the bounds")
-                for key in ("start", "median"):
+                for key in ("start", "median", "value"):
                     if key in pr and not lo < pr[key] < hi:
                         raise ConfigError(f"{field}: {key} {pr[key]:g} is outside the bounds ({lo:g}, {hi:g}); "
                                           "move it inside")

@@ -21,7 +21,7 @@ from roboball.identify.friction.comparison import comparison, recommendation
 from roboball.identify.friction.fit import fit, fit_segments
 from roboball.identify.friction.lsq import least_squares_fit
 from roboball.identify.friction.moves import IndependentT
-from roboball.identify.friction.priors import Prior, law_priors, stand_priors
+from roboball.identify.friction.priors import Prior, law_fixed, law_priors, stand_priors
 from roboball.identify.friction.problem import RELEASE_HALF_WIDTH_RAD, FrictionProblem
 from roboball.identify.friction.results import STAND_PARAMS
 from roboball.identify.friction.sampler import sample_posterior
@@ -32,7 +32,7 @@ from roboball.physics import friction
 from conftest import REAL_DATA
 
 ROBOT = load_robot()
-MAJD_TRUE = {"f_w": 0.2, "f_c": 0.45, "sigma": 3.0, "omega_c": 0.3, "n": 2.0}
+MAJD_TRUE = {"f_w": 0.2, "f_c": 0.45, "sigma": 3.0, "omega_c": 0.3, "n": 1.6}     # n: the priors' point value
 
 
 def synthetic_stand(law, true, seed, angles=(0.9, -1.0, 0.7), duration=3.5, noise=1e-3, quantum=1e-3,
@@ -73,14 +73,17 @@ def majd_fit(tmp_path_factory):
 
 def test_majd_parameters_are_recovered_with_covering_intervals(majd_fit):
     res, samples = majd_fit
+    assert res["fixed"]["n"] == MAJD_TRUE["n"]          # held by the priors' point value
     for name, truth in MAJD_TRUE.items():
+        if name == "n":
+            continue
         p = res["parameters"][name]
-        # within 3 posterior sd of the median (sd from the 95% interval): five parameters
-        # each inside their own 95% interval fail together one time in four by chance
+        # within 3 posterior sd of the median (sd from the 95% interval): four parameters
+        # each inside their own 95% interval fail together one time in five by chance
         sd = (p["ci95_high"] - p["ci95_low"]) / 3.92
         assert abs(p["median"] - truth) < 3 * sd, (name, p, res["notes"])
         assert p["unit"] == friction.UNITS[name]
-    # the well-determined ones are tight; sigma and n only through their product near n = 1
+    # the well-determined ones are tight
     for name in ("f_w", "f_c"):
         p = res["parameters"][name]
         assert (p["ci95_high"] - p["ci95_low"]) / MAJD_TRUE[name] < 0.1
@@ -90,7 +93,7 @@ def test_majd_parameters_are_recovered_with_covering_intervals(majd_fit):
     assert conv["converged"], res["notes"]
     assert conv["chain_over_tau"] >= 8 and conv["steps"] - conv["burn_in"] >= 8 * conv["max_tau"]
     assert 0.05 < conv["acceptance_fraction"] < 0.9 and conv["ess_min"] > 0
-    assert set(samples.columns) == {*MAJD_TRUE, "h_peak", "v_peak", *STAND_PARAMS, "noise_rad"} and len(samples) > 100
+    assert set(samples.columns) == {*MAJD_TRUE, "h_peak", "v_peak", *STAND_PARAMS, "noise_rad"} - {"n"} and len(samples) > 100
     angles = [a["median"] for a in res["release_angles"]]
     assert len(angles) == 3
     assert np.allclose(angles, [0.9, -1.0, 0.7], atol=3e-3)
@@ -109,11 +112,13 @@ def test_reported_intervals_are_the_95_percent_ones_of_the_chain_after_burn_in(m
     assert chain.shape[0] == res["convergence"]["steps"]
     flat = chain[burn:].reshape(-1, chain.shape[-1])
     pri = {**law_priors("steer", "majd", None), **stand_priors("steer")}
-    names = list(friction.FIT_PARAMS["majd"]) + list(STAND_PARAMS)
+    names = [p for p in friction.FIT_PARAMS["majd"] if p != "n"] + list(STAND_PARAMS)     # n held (priors.yaml)
+    assert res["fixed"] == {"n": 1.6} and "n" not in res["parameters"]
     cols = {name: pri[name].theta(flat[:, j]) for j, name in enumerate(names)}
     cols["noise_rad"] = np.exp(flat[:, len(cols)])
+    cols_n = res["fixed"]["n"]
     # sigma and omega_c derived from each sample's stiction peak
-    cols["sigma"], cols["omega_c"] = friction.majd_from_peak(cols["f_c"], cols["h_peak"], cols["v_peak"], cols["n"])
+    cols["sigma"], cols["omega_c"] = friction.majd_from_peak(cols["f_c"], cols["h_peak"], cols["v_peak"], cols_n)
     for name, col in cols.items():
         p = res["parameters"][name]
         lo, med, hi = np.percentile(col, [2.5, 50, 97.5])
@@ -128,8 +133,8 @@ def test_reported_intervals_are_the_95_percent_ones_of_the_chain_after_burn_in(m
 
 
 def test_ess_and_bic_parameter_count_of_a_majd_fit(majd_fit):
-    """ESS counts every walker: n_walkers x (steps - burn-in) / tau; the BIC counts the five Majd
-    parameters, the stand's two, the noise level and the three releases' sampled angles and
+    """ESS counts every walker: n_walkers x (steps - burn-in) / tau; the BIC counts the four sampled
+    Majd parameters (n is held by its point prior), the stand's two, the noise level and the three releases' sampled angles and
     instants (sigma and omega_c, derived from the sampled stiction peak, are not counted)."""
     res, _ = majd_fit
     conv = res["convergence"]
@@ -140,8 +145,8 @@ def test_ess_and_bic_parameter_count_of_a_majd_fit(majd_fit):
         if not p.get("derived"):                # sigma, omega_c: functions of the sampled ones
             assert p["ess"] == pytest.approx(conv["n_walkers"] * n_after / p["tau_steps"], rel=1e-9), name
     st = res["fit"]
-    assert st["n_params"] == 5 + 2 + 1 + 3 + 3
-    assert st["bic"] == pytest.approx(14 * np.log(st["n_obs"]) - 2 * st["loglik_max"], rel=1e-12)
+    assert st["n_params"] == 4 + 2 + 1 + 3 + 3
+    assert st["bic"] == pytest.approx(13 * np.log(st["n_obs"]) - 2 * st["loglik_max"], rel=1e-12)
 
 
 def test_sharply_identified_parameters_are_not_flagged_weak(majd_fit):
@@ -241,9 +246,16 @@ def test_model_comparison_prefers_the_true_law(tmp_path):
 
 def test_priors_file_and_blocks_are_validated():
     pri = law_priors("steer", "majd", None)
-    assert set(pri) == {"f_w", "f_c", "h_peak", "v_peak", "n"}        # Majd's law by its stiction peak
-    # n sampled as log n, from 1, with a smooth (lognormal) upper tail instead of a bound
-    assert pri["n"].shift == 0.0 and pri["n"].low >= 1.0 and pri["n"].type == "lognormal"
+    assert set(pri) == {"f_w", "f_c", "h_peak", "v_peak"}        # Majd's law by its stiction peak
+    # n held by a point prior at Table I's drive value (the swings do not pin it; priors.yaml)
+    for joint in ("steer", "drive"):
+        assert law_fixed(joint, "majd") == {"n": ROBOT.friction_table1["majd_drive"]["n"]}
+        assert law_fixed(joint, "viscous") == {}
+    # a point prior is a value, not a distribution: a start or bounds with it are refused
+    with pytest.raises(ConfigError):
+        law_priors("steer", "majd", {**{k: {"type": "loguniform", "low": 0.001, "high": 20.0, "start": 0.5}
+                                       for k in ("f_w", "f_c", "h_peak", "v_peak")},
+                                    "n": {"type": "fixed", "value": 1.6, "start": 1.6}})
     table1 = ROBOT.friction_table1
     for joint, law, key in (("steer", "viscous", "viscous"), ("steer", "majd", "majd_steer"),
                             ("drive", "majd", "majd_drive")):
@@ -478,8 +490,9 @@ def test_majd_is_sampled_through_its_stiction_peak():
         assert low["sigma"] < 0 and bool(friction.admissible("majd", low)) is not pushes
         assert bool(np.any(friction.torque("majd", v, low) * v > 1e-12)) is pushes
     problem = FrictionProblem("steer_stand", "majd", segments_from_arrays(synthetic_stand(
-        "viscous", {"c": 0.3}, seed=3, angles=(0.6,), duration=1.0)), law_priors("steer", "majd"))
-    assert problem.law_names == ["f_w", "f_c", "h_peak", "v_peak", "n"]
+        "viscous", {"c": 0.3}, seed=3, angles=(0.6,), duration=1.0)), law_priors("steer", "majd"),
+        fixed=law_fixed("steer", "majd"))
+    assert problem.law_names == ["f_w", "f_c", "h_peak", "v_peak"]
 
 
 # ---------------------------------------------------------------------------------------------

@@ -11,7 +11,7 @@ import pytest
 from roboball.reduced import planar as R
 from roboball.reduced import kernel as K
 from roboball.config import load_robot
-from roboball.identify.friction.priors import law_priors
+from roboball.identify.friction.priors import law_fixed, law_priors
 from roboball.physics import friction
 from roboball.physics.mathns import scalar
 
@@ -33,7 +33,8 @@ def test_compiled_loop_matches_numpy_loop_over_prior_draws(joint, law):
     kind = f"{joint}_stand"
     rng = np.random.default_rng(3)
     B = 96
-    params = friction.natural_params(law, {name: p.theta(p.sample_u(rng, B)) for name, p in law_priors(joint, law).items()})
+    params = friction.natural_params(law, {**{name: p.theta(p.sample_u(rng, B)) for name, p in law_priors(joint, law).items()},
+                                           **law_fixed(joint, law)})
     q0 = R.planar_model(kind, ROBOT).rest_angle + rng.uniform(-1.0, 1.0, B)
     a, b = _both(kind, law, params, q0)
     assert a.q.shape == b.q.shape and a.qd.shape == b.qd.shape
@@ -66,8 +67,9 @@ def test_compiled_runs_do_not_depend_on_the_number_of_threads():
     import numba
 
     rng = np.random.default_rng(5)
-    params = friction.natural_params("majd", {name: p.theta(p.sample_u(rng, 40))
-                                              for name, p in law_priors("steer", "majd").items()})
+    params = friction.natural_params("majd", {**{name: p.theta(p.sample_u(rng, 40))
+                                                 for name, p in law_priors("steer", "majd").items()},
+                                              "n": rng.uniform(1.05, 4.0, 40)})
     q0 = rng.uniform(-1.0, 1.0, 40)
     model = R.planar_model("steer_stand", ROBOT)
     n0 = numba.get_num_threads()

@@ -37,7 +37,7 @@ import pandas as pd
 from roboball.config import RobotFacts
 from roboball.errors import RoboballError
 from roboball.identify.friction.lsq import least_squares_fit
-from roboball.identify.friction.priors import law_priors, stand_priors
+from roboball.identify.friction.priors import law_fixed, law_priors, stand_priors
 from roboball.identify.friction.problem import RELEASE_SHIFT_HALF_WIDTH_S, FrictionProblem
 from roboball.identify.friction.sampler import sample_posterior
 from roboball.identify.friction.segments import JOINT_OF_KIND, KIND_OF_JOINT, Segment, segments_from_arrays
@@ -57,7 +57,7 @@ def fit_segments(kind: str, law: str, segments: Sequence, chain_path: str | os.P
 
     `priors` gives the law's and the stand's priors (:func:`law_priors`, :func:`stand_priors`);
     `fixed` holds any of their parameters at a value (``{"delta_i": 0, "rest_offset": 0}``: the
-    stand as its URDF says).  `release_shift_s`: the half-width of the release instants' prior
+    stand as its URDF says), besides those the priors fix (``type: fixed``).  `release_shift_s`: the half-width of the release instants' prior
     (0: the instants are the release finder's).
     `dt` None chooses the RK4 step at the least-squares optimum (:func:`choose_dt`).
     `sample_angles` True (default) marginalises the release states in the posterior.  False
@@ -74,6 +74,7 @@ def fit_segments(kind: str, law: str, segments: Sequence, chain_path: str | os.P
                             f"not '{kind}'")
     segs = segments if all(isinstance(s, Segment) for s in segments) else segments_from_arrays(segments, source)
     where = str(priors) if isinstance(priors, (str, os.PathLike)) else "priors"
+    fixed = {**law_fixed(joint, law, priors, source=where), **(fixed or {})}     # the file's point priors, then the caller's
     problem = FrictionProblem(kind, law, segs, law_priors(joint, law, priors, source=where), fixed=fixed,
                               robot=robot, dt=dt or DT_CANDIDATES[0], stand=stand_priors(joint, priors, source=where),
                               shift_half_width=release_shift_s)

@@ -187,7 +187,18 @@ def law_priors(joint: str, law: str, priors: Mapping | str | os.PathLike | None 
         block = data[joint][law]
     except KeyError:
         raise ConfigError(f"{source}: no priors for law '{law}' on the {joint} joint; add '{joint}.{law}'")
-    return {name: Prior.from_spec(name, block[name]) for name in friction.FIT_PARAMS[law] if name in block}
+    return {name: Prior.from_spec(name, block[name]) for name in friction.FIT_PARAMS[law]
+            if name in block and block[name]["type"] != "fixed"}
+
+
+def law_fixed(joint: str, law: str, priors: Mapping | str | os.PathLike | None = None,
+              source: str = "priors") -> dict[str, float]:
+    """The parameters of `law` on `joint` that `priors` holds at a value (``type: fixed``, a
+    point prior stated in the file: Majd's n, whose value the swings do not pin), as
+    {name: value}; `priors` as for :func:`law_priors`."""
+    data, source = _resolved(joint, law, priors, source)
+    block = data.get(joint, {}).get(law, {})
+    return {name: float(spec["value"]) for name, spec in block.items() if spec["type"] == "fixed"}
 
 
 def stand_priors(joint: str, priors: Mapping | str | os.PathLike | None = None,
