@@ -60,3 +60,19 @@ def test_table1_gives_the_calibrated_stand_with_intervals_and_recommends_only_co
     assert "| real_a | steer | coulomb_viscous | delta_i | 0.0498 | [0.0475, 0.0522] | 0.05 | - | kg m^2 |" in md
     assert "| real_a | steer | coulomb_viscous | 600 | 200 | 8 | 55.0 (needs 50) | 450 | yes | 43 |" in md
     assert ("Recommended: **coulomb_viscous** (majd, of lower BIC, left out: its chain did not converge)." in md), md
+
+
+def test_table1_lists_a_held_parameter_as_held_with_its_value(tmp_path):
+    """Majd's n, held by a point prior, is a row of its own: its value, "held (not fitted)" for
+    an interval, no MAP; the CSV marks it (`held`) and leaves its interval empty."""
+    path = tmp_path / "stand_m.json"
+    _fit(path, "majd", True, 9.0)
+    d = json.loads(path.read_text())
+    d["fixed"] = {"n": 1.6}
+    path.write_text(json.dumps(d))
+    table1([str(path)], str(tmp_path / "t.csv"), str(tmp_path / "t.md"))
+    md = (tmp_path / "t.md").read_text()
+    assert "| stand_m | steer | majd | n | 1.6 | held (not fitted) | - | 1 | 1 |" in md     # paper (steer): 1
+    assert "nan" not in md
+    csv = pd.read_csv(tmp_path / "t.csv").set_index("parameter")
+    assert bool(csv.loc["n", "held"]) and pd.isna(csv.loc["n", "ci95_low"]) and not bool(csv.loc["c", "held"])

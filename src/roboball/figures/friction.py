@@ -145,7 +145,12 @@ def _table1_rows(fits: list, robot) -> tuple[pd.DataFrame, list, list]:
                          "map": p.get("map", float("nan")), "ci95_low": p["ci95_low"], "ci95_high": p["ci95_high"],
                          "unit": p.get("unit") or ("rad" if name == "noise_rad" else friction.UNITS.get(name, "")),
                          "paper_table1": paper.get(name, float("nan")), "source": f.recording,
-                         "converged": converged})
+                         "converged": converged, "held": False})
+        for name, value in f.fixed.items():     # held by a point prior (Majd's n) or by the law (v_tol)
+            rows.append({"joint": f.joint, "law": f.law, "parameter": name, "median": float(value),
+                         "map": float("nan"), "ci95_low": float("nan"), "ci95_high": float("nan"),
+                         "unit": friction.UNITS.get(name, ""), "paper_table1": paper.get(name, float("nan")),
+                         "source": f.recording, "converged": converged, "held": True})
         if c:
             wall = (f.timing or {}).get("wall_s")
             chains.append(f"| {f.recording} | {f.joint} | {f.law} | {c['steps']} | {c['burn_in']} | "
@@ -175,7 +180,9 @@ TABLE1_HEAD = [
     "error) and its `rest_offset` (the measured angle's zero) are fitted with the law, and the angle and "
     "instant at which each swing starts with them (section Stand calibration). Majd's law is sampled by its "
     "stiction peak: `h_peak`, the hump's torque where its sigma term peaks, at the speed `v_peak`; `sigma` and "
-    "`omega_c` are derived from them, `f_c` and `n`. `noise_rad` is the likelihood's "
+    "`omega_c` are derived from them, `f_c` and `n`. Majd's `n` is held at 1.6 (Table I's drive value) by a "
+    "point prior stated in configs/priors.yaml, because the swings do not pin it, and eq. 2's stiction band "
+    "`v_tol` at the robot facts' value; such rows say \"held\". `noise_rad` is the likelihood's "
     "standard deviation of the angle, fitted with the law: sensor noise plus what the law cannot fit (the "
     "paper gives none). A fit whose chain did not converge is marked in the law column.", "",
     "| recording | joint | law | parameter | median | 95% interval | MAP | paper | unit |",
@@ -213,8 +220,10 @@ def table1(fits: list, out_csv: str, out_md: str, comparison_csv: str = "", robo
     md = list(TABLE1_HEAD)
     for r in df.itertuples():
         paper_value = f"{r.paper_table1:.4g}" if np.isfinite(r.paper_table1) else "-"
+        interval = "held (not fitted)" if r.held else f"[{r.ci95_low:.4g}, {r.ci95_high:.4g}]"
+        map_value = "-" if r.held else f"{r.map:.4g}"
         md.append(f"| {r.source} | {r.joint} | {_law_cell(r.law, r.converged)} | {r.parameter} | {r.median:.4g} | "
-                  f"[{r.ci95_low:.4g}, {r.ci95_high:.4g}] | {r.map:.4g} | {paper_value} | {r.unit} |")
+                  f"{interval} | {map_value} | {paper_value} | {r.unit} |")
     if calib:
         md += CALIBRATION_HEAD + calib
     if chains:
