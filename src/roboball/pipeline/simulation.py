@@ -128,12 +128,16 @@ def ramp_sim(recording: str, releases: str, regression: str, contact: str, out_c
         # the run's own stream: the same draws for every contact model of this run, and none that
         # move when another run joins the campaign
         rng = np.random.default_rng([seed, zlib.crc32(row["recording"].encode())])
-        samples = {k: pd.read_csv(_sample_path(v)) for k, v in (("steer", friction_steer), ("drive", friction_drive))}
+        files = {k: _samples_and_held(v) for k, v in (("steer", friction_steer), ("drive", friction_drive))}
+        samples = {k: pd.read_csv(path) for k, (path, _) in files.items()}
+        majd = friction_params_of("majd")
         for _ in range(posterior_draws):
             fp = {}
             for joint, s in samples.items():
                 i = int(rng.integers(len(s)))
-                fp[joint] = {c: float(s[c].iloc[i]) for c in s.columns if c in friction_params_of("majd")}
+                # a draw of the sampled parameters, with those the fit held (Majd's n) at their value
+                fp[joint] = {**{k: v for k, v in files[joint][1].items() if k in majd},
+                             **{c: float(s[c].iloc[i]) for c in s.columns if c in majd}}
             draws.append(pme(w_e, run(fp)))
         row.update(pme_draw_low=float(np.percentile(draws, 2.5)), pme_draw_high=float(np.percentile(draws, 97.5)),
                    pme_draw_median=float(np.median(draws)))
@@ -143,9 +147,11 @@ def ramp_sim(recording: str, releases: str, regression: str, contact: str, out_c
                                        "drive_rate_sim_rad_s": w_s}), out_trace)
 
 
-def _sample_path(fit_json):
+def _samples_and_held(fit_json) -> tuple[str, dict]:
+    """(the fit's samples CSV, the parameters it held fixed {name: value})."""
     with open(fit_json, encoding="utf-8") as fh:
-        return json.load(fh)["samples_csv"]
+        d = json.load(fh)
+    return d["samples_csv"], {k: float(v) for k, v in (d.get("fixed") or {}).items()}
 
 
 def summarise(inputs: list, out_csv: str) -> None:
