@@ -288,13 +288,7 @@ def sample(traj: Trajectory, t, rows: slice | np.ndarray | None = None) -> np.nd
     t = np.asarray(t, dtype=float)
     if t.ndim == 2:
         return sample_rows(traj, t, rows)
-    Q = traj.q if rows is None else traj.q[:, rows]
-    Vd = traj.qd if rows is None else traj.qd[:, rows]
-    n = Q.shape[0] - 1
-    dt = traj.dt
-    tc = np.clip(t, 0.0, n * dt)
-    k = np.minimum((tc / dt).astype(int), n - 1)
-    u = (tc - k * dt) / dt
+    Q, Vd, k, u, dt = _cell(traj, t, rows)
     u2, u3 = u * u, u * u * u
     h00 = (2 * u3 - 3 * u2 + 1)[:, None]
     h10 = (u3 - 2 * u2 + u)[:, None] * dt
@@ -304,16 +298,22 @@ def sample(traj: Trajectory, t, rows: slice | np.ndarray | None = None) -> np.nd
     return out.T
 
 
-def sample_rows(traj: Trajectory, t: np.ndarray, rows: slice | np.ndarray | None = None) -> np.ndarray:
-    """:func:`sample` with times of each row, `t` (B_rows, n_t) (e.g. releases whose instant is
-    fitted per walker); returns (B_rows, n_t)."""
+def _cell(traj: Trajectory, t: np.ndarray, rows) -> tuple:
+    """(Q, Vd, k, u, dt): the trajectory's rows, each time's step index k and its fraction u of
+    that step (times clipped to the trajectory) for :func:`sample` and :func:`sample_rows`."""
     Q = traj.q if rows is None else traj.q[:, rows]
     Vd = traj.qd if rows is None else traj.qd[:, rows]
     n = Q.shape[0] - 1
     dt = traj.dt
     tc = np.clip(t, 0.0, n * dt)
     k = np.minimum((tc / dt).astype(int), n - 1)
-    u = (tc - k * dt) / dt
+    return Q, Vd, k, (tc - k * dt) / dt, dt
+
+
+def sample_rows(traj: Trajectory, t: np.ndarray, rows: slice | np.ndarray | None = None) -> np.ndarray:
+    """:func:`sample` with times of each row, `t` (B_rows, n_t) (e.g. releases whose instant is
+    fitted per walker); returns (B_rows, n_t)."""
+    Q, Vd, k, u, dt = _cell(traj, t, rows)
     u2, u3 = u * u, u * u * u
     c = np.arange(Q.shape[1])[:, None]
     return ((2 * u3 - 3 * u2 + 1) * Q[k, c] + (u3 - 2 * u2 + u) * dt * Vd[k, c]
