@@ -15,7 +15,7 @@ from roboball.errors import RoboballError
 from roboball.metrics import pme, speed_errors
 from roboball.physics import shell as shell_laws
 
-STAGES = ("shell_sim", "ramp_sim", "summarise", "replay")
+STAGES = ("shell_sim", "ramp_sim", "summarise", "replay", "replay_viewer", "replay_gallery")
 
 
 # ---- shell regressions -> per-pressure shell parameters ------------------------------------
@@ -153,15 +153,15 @@ def summarise(inputs: list, out_csv: str) -> None:
     write_csv_atomic(pd.concat([pd.read_csv(p) for p in sorted(inputs)], ignore_index=True), out_csv)
 
 
-def replay(kind: str, contact: str, out_html: str, regression: str = "", pressure_kpa: float = 13.8,
-           release: float = 0.3, duration: float = 4.0, dissipation_scale: float = 1.0) -> None:
-    """A self-contained HTML replay (Drake Meshcat recording) of one simulated run."""
-    from pydrake.geometry import Meshcat, MeshcatParams
-    from pydrake.systems.analysis import Simulator
-
+def replay(kind: str, contact: str, out_html: str, out_scene: str, regression: str = "", pressure_kpa: float = 13.8,
+           release: float = 0.3, duration: float = 4.0, dissipation_scale: float = 1.0,
+           ramp_length_m: float = 2.0) -> None:
+    """A Drake Meshcat replay of one simulated run (Majd friction, Table I, on both joints): the
+    scene as JSON (for the gallery) and a page that loads the shared meshcat.js beside it."""
     from roboball.atomic import write_text_atomic
-    from roboball.sim.plant import build
-    from roboball.sim.scenarios import set_release
+    from roboball.config import load_robot
+    from roboball.report.replays import standalone_page
+    from roboball.sim.replay import record
     from roboball.sim.spec import ShellParams, SimSpec
 
     shell = ShellParams(dissipation_scale=dissipation_scale, injected_steer=kind != "ramp")
@@ -169,12 +169,35 @@ def replay(kind: str, contact: str, out_html: str, regression: str = "", pressur
         shell.zeta, shell.omega_n = shell_at(regression, pressure_kpa)
     spec = SimSpec(kind=kind, contact=contact, friction={"steer": "majd", "drive": "majd"},
                    pressure_kpa=pressure_kpa, shell=shell)
-    meshcat = Meshcat(MeshcatParams(host="localhost", port=None))   # loopback only, any free port
-    built = build(spec, meshcat=meshcat)
-    vis = next(s for s in built.diagram.GetSystems() if s.get_name().startswith("meshcat_visualizer"))
-    sim = Simulator(built.diagram)
-    set_release(built, sim.get_mutable_context(), release)
-    vis.StartRecording()
-    sim.AdvanceTo(duration)
-    vis.PublishRecording()
-    write_text_atomic(out_html, meshcat.StaticHtml())
+    scene = record(spec, release, duration, ramp_length_m=ramp_length_m)
+    facts = {"kind": kind, "contact": contact, "pressure_kpa": pressure_kpa, "release_rad": release,
+             "duration_s": duration, "dissipation_scale": dissipation_scale,
+             "friction": "Majd law on steer and drive joints, Table I values",
+             "zeta": shell.zeta, "omega_n_rad_s": shell.omega_n,
+             "ramp_angle_deg": load_robot().ramp_angle_deg, "ramp_length_m": ramp_length_m, **scene.facts}
+    data = {"facts": facts, "commands": scene.commands, "camera_m": scene.camera_m, "target_m": scene.target_m,
+            "follow": scene.follow}
+    write_text_atomic(out_scene, json.dumps(data))
+    write_text_atomic(out_html, standalone_page(data))
+
+
+def replay_viewer(out_js: str) -> None:
+    """Meshcat's viewer code, once, for every replay page in its folder."""
+    from roboball.atomic import write_text_atomic
+    from roboball.sim.replay import viewer_js
+
+    write_text_atomic(out_js, viewer_js())
+
+
+def replay_gallery(scenes: list, viewer: str, out_html: str) -> None:
+    """Every replay in one self-contained page (the Snakemake report's replay result)."""
+    from pathlib import Path
+
+    from roboball.atomic import write_text_atomic
+    from roboball.report.replays import gallery_page
+
+    data = []
+    for path in scenes:
+        with open(path, encoding="utf-8") as fh:
+            data.append(json.loads(fh.read()))
+    write_text_atomic(out_html, gallery_page(data, Path(viewer).read_text(encoding="utf-8"), source=out_html))
