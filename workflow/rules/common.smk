@@ -132,7 +132,7 @@ def final_targets():
         f"{PF}/fig13_ramp_pme.png", f"{PF}/fig14_ramp_pme_mean.png",
         f"{PF}/table_pme.csv", f"{PF}/table_pme.md", f"{PF}/table_sweep.md", f"{PF}/table2_robot.md",
     ]
-    targets += [f"results/replays/{s}.html" for s in REPLAYS]
+    targets += [f"results/replays/{s}.html" for s in REPLAYS] + ["results/replays/meshcat.js", "results/replays/index.html"]
     targets += [f"{PF}/fig5_friction_laws.png", f"{PF}/table1_friction.md",
                 f"{PF}/fig7_testbed_steer_fits.png", f"{PF}/fig8_testbed_drive_fits.png"]
     targets += [f"{PF}/corner/corner_{d}_{j}_{l}.png" for d, j, l in FITS]

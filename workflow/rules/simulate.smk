@@ -97,17 +97,41 @@ rule ramp_summary:
 
 rule replay:
     input: regression="results/identify/shell_regression.csv"
-    output: report("results/replays/{scenario}.html", category="5 Replays", caption="../report/replay.rst")
+    output:
+        html="results/replays/{scenario}.html",
+        scene="results/replays/{scenario}.scene.json",
     params:
         code=CODE["replay"],
         contact=lambda w: REPLAYS[w.scenario][0],
         release=lambda w: REPLAYS[w.scenario][1],
         d=config["shell"]["carried_forward"]["dissipation_scale"],
+        length=config["ramp"].get("replay_length_m", 2.0),
     log: "results/logs/replay/{scenario}.log"
     benchmark: "results/benchmarks/replay/{scenario}.tsv"
     shell:
         "{ROBOBALL} replay --kind {wildcards.scenario} --contact {params.contact} --regression {input.regression} "
-        "--release {params.release} --dissipation-scale {params.d} --out-html {output} > {log} 2>&1"
+        "--release {params.release} --dissipation-scale {params.d} --ramp-length-m {params.length} "
+        "--out-html {output.html} --out-scene {output.scene} > {log} 2>&1"
+
+
+# Meshcat's viewer code, once: every replay page in results/replays/ loads it.
+rule replay_viewer:
+    output: "results/replays/meshcat.js"
+    params: code=CODE["replay-viewer"]
+    log: "results/logs/replay/viewer.log"
+    shell: "{ROBOBALL} replay-viewer --out-js {output} > {log} 2>&1"
+
+
+# Every replay in one self-contained page (the viewer compressed once): the Snakemake report
+# embeds results as data URIs, which Chromium opens only under 2 MiB.
+rule replay_gallery:
+    input:
+        scenes=expand("results/replays/{scenario}.scene.json", scenario=list(REPLAYS)),
+        viewer="results/replays/meshcat.js",
+    output: report("results/replays/index.html", category="5 Replays", caption="../report/replay.rst")
+    params: code=CODE["replay-gallery"]
+    log: "results/logs/replay/gallery.log"
+    shell: "{ROBOBALL} replay-gallery --scenes {input.scenes} --viewer {input.viewer} --out-html {output} > {log} 2>&1"
 
 
 rule figS1_deflating_ramp:

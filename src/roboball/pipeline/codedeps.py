@@ -19,7 +19,7 @@ from pathlib import Path
 PACKAGE_ROOT = Path(__file__).resolve().parents[1]        # .../src/roboball
 PACKAGE = "roboball"
 # The stage modules, in the order `roboball stage` searches them (roboball.cli.stage).
-STAGE_MODULES = ("roboball.pipeline.ident", "roboball.pipeline.simulation", "roboball.figures.paper",
+STAGE_MODULES = ("roboball.pipeline.ident", "roboball.pipeline.replays", "roboball.pipeline.simulation", "roboball.figures.paper",
                  "roboball.figures.friction", "roboball.report.uncertainty", "roboball.pipeline.friction",
                  "roboball.pipeline.deflating", "roboball.pipeline.diagnosis")
 ROBOT_FACTS_READER = "roboball.config"

@@ -15,7 +15,7 @@ from roboball.errors import RoboballError
 from roboball.metrics import pme, speed_errors
 from roboball.physics import shell as shell_laws
 
-STAGES = ("shell_sim", "ramp_sim", "summarise", "replay", "replay_viewer", "replay_gallery")
+STAGES = ("shell_sim", "ramp_sim", "summarise", "replay")
 
 
 # ---- shell regressions -> per-pressure shell parameters ------------------------------------
@@ -128,12 +128,16 @@ def ramp_sim(recording: str, releases: str, regression: str, contact: str, out_c
         # the run's own stream: the same draws for every contact model of this run, and none that
         # move when another run joins the campaign
         rng = np.random.default_rng([seed, zlib.crc32(row["recording"].encode())])
-        samples = {k: pd.read_csv(_sample_path(v)) for k, v in (("steer", friction_steer), ("drive", friction_drive))}
+        files = {k: _samples_and_held(v) for k, v in (("steer", friction_steer), ("drive", friction_drive))}
+        samples = {k: pd.read_csv(path) for k, (path, _) in files.items()}
+        majd = friction_params_of("majd")
         for _ in range(posterior_draws):
             fp = {}
             for joint, s in samples.items():
                 i = int(rng.integers(len(s)))
-                fp[joint] = {c: float(s[c].iloc[i]) for c in s.columns if c in friction_params_of("majd")}
+                # a draw of the sampled parameters, with those the fit held (Majd's n) at their value
+                fp[joint] = {**{k: v for k, v in files[joint][1].items() if k in majd},
+                             **{c: float(s[c].iloc[i]) for c in s.columns if c in majd}}
             draws.append(pme(w_e, run(fp)))
         row.update(pme_draw_low=float(np.percentile(draws, 2.5)), pme_draw_high=float(np.percentile(draws, 97.5)),
                    pme_draw_median=float(np.median(draws)))
@@ -143,9 +147,11 @@ def ramp_sim(recording: str, releases: str, regression: str, contact: str, out_c
                                        "drive_rate_sim_rad_s": w_s}), out_trace)
 
 
-def _sample_path(fit_json):
+def _samples_and_held(fit_json) -> tuple[str, dict]:
+    """(the fit's samples CSV, the parameters it held fixed {name: value})."""
     with open(fit_json, encoding="utf-8") as fh:
-        return json.load(fh)["samples_csv"]
+        d = json.load(fh)
+    return d["samples_csv"], {k: float(v) for k, v in (d.get("fixed") or {}).items()}
 
 
 def summarise(inputs: list, out_csv: str) -> None:
@@ -153,15 +159,15 @@ def summarise(inputs: list, out_csv: str) -> None:
     write_csv_atomic(pd.concat([pd.read_csv(p) for p in sorted(inputs)], ignore_index=True), out_csv)
 
 
-def replay(kind: str, contact: str, out_html: str, out_scene: str, regression: str = "", pressure_kpa: float = 13.8,
-           release: float = 0.3, duration: float = 4.0, dissipation_scale: float = 1.0,
-           ramp_length_m: float = 2.0) -> None:
-    """A Drake Meshcat replay of one simulated run (Majd friction, Table I, on both joints): the
-    scene as JSON (for the gallery) and a page that loads the shared meshcat.js beside it."""
+def replay(kind: str, contact: str, out_html: str, regression: str = "", pressure_kpa: float = 13.8,
+           release: float = 0.3, duration: float = 4.0, dissipation_scale: float = 1.0) -> None:
+    """A self-contained HTML replay (Drake Meshcat recording) of one simulated run."""
+    from pydrake.geometry import Meshcat, MeshcatParams
+    from pydrake.systems.analysis import Simulator
+
     from roboball.atomic import write_text_atomic
-    from roboball.config import load_robot
-    from roboball.report.replays import standalone_page
-    from roboball.sim.replay import record
+    from roboball.sim.plant import build
+    from roboball.sim.scenarios import set_release
     from roboball.sim.spec import ShellParams, SimSpec
 
     shell = ShellParams(dissipation_scale=dissipation_scale, injected_steer=kind != "ramp")
@@ -169,35 +175,12 @@ def replay(kind: str, contact: str, out_html: str, out_scene: str, regression: s
         shell.zeta, shell.omega_n = shell_at(regression, pressure_kpa)
     spec = SimSpec(kind=kind, contact=contact, friction={"steer": "majd", "drive": "majd"},
                    pressure_kpa=pressure_kpa, shell=shell)
-    scene = record(spec, release, duration, ramp_length_m=ramp_length_m)
-    facts = {"kind": kind, "contact": contact, "pressure_kpa": pressure_kpa, "release_rad": release,
-             "duration_s": duration, "dissipation_scale": dissipation_scale,
-             "friction": "Majd law on steer and drive joints, Table I values",
-             "zeta": shell.zeta, "omega_n_rad_s": shell.omega_n,
-             "ramp_angle_deg": load_robot().ramp_angle_deg, "ramp_length_m": ramp_length_m, **scene.facts}
-    data = {"facts": facts, "commands": scene.commands, "camera_m": scene.camera_m, "target_m": scene.target_m,
-            "follow": scene.follow}
-    write_text_atomic(out_scene, json.dumps(data))
-    write_text_atomic(out_html, standalone_page(data))
-
-
-def replay_viewer(out_js: str) -> None:
-    """Meshcat's viewer code, once, for every replay page in its folder."""
-    from roboball.atomic import write_text_atomic
-    from roboball.sim.replay import viewer_js
-
-    write_text_atomic(out_js, viewer_js())
-
-
-def replay_gallery(scenes: list, viewer: str, out_html: str) -> None:
-    """Every replay in one self-contained page (the Snakemake report's replay result)."""
-    from pathlib import Path
-
-    from roboball.atomic import write_text_atomic
-    from roboball.report.replays import gallery_page
-
-    data = []
-    for path in scenes:
-        with open(path, encoding="utf-8") as fh:
-            data.append(json.loads(fh.read()))
-    write_text_atomic(out_html, gallery_page(data, Path(viewer).read_text(encoding="utf-8"), source=out_html))
+    meshcat = Meshcat(MeshcatParams(host="localhost", port=None))   # loopback only, any free port
+    built = build(spec, meshcat=meshcat)
+    vis = next(s for s in built.diagram.GetSystems() if s.get_name().startswith("meshcat_visualizer"))
+    sim = Simulator(built.diagram)
+    set_release(built, sim.get_mutable_context(), release)
+    vis.StartRecording()
+    sim.AdvanceTo(duration)
+    vis.PublishRecording()
+    write_text_atomic(out_html, meshcat.StaticHtml())
