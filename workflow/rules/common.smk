@@ -92,6 +92,9 @@ DEFLATE = config.get("deflating_ramp", {})
 DEFLATE_SCHEDULE = DEFLATE.get("schedule", {})
 
 PF = "paper_figures"
+# The paper tables the Snakemake report shows (rule table_page), by file stem.
+TABLE_NAMES = {"table1_friction": "Table I: joint friction", "table2_robot": "Table II: the robot's numbers",
+               "table_pme": "PME (eq. 12) by contact model and pressure", "table_sweep": "Hydroelastic sweep"}
 
 
 ##### file names #####
@@ -139,6 +142,7 @@ def final_targets():
     if REAL_ON:
         targets += [f"{PF}/fig7_real_steer_fits.png"]
     targets += [f"{PF}/uncertainty_report.html", f"{PF}/figS1_deflating_ramp.png"]
+    targets += [f"results/report/{t}.html" for t in TABLE_NAMES]
     return targets
 
 
