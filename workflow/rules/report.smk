@@ -18,7 +18,9 @@ rule uncertainty_report:
         figures=report_figures(),
         # the posteriors the ramp simulations draw friction from: the PME recommendation rests on them
         ramp_friction=list(RAMP_FRICTION.values()),
-    output: report(f"{PF}/uncertainty_report.html", category="0 Report", caption="../report/uncertainty.rst")
+    output:
+        report(f"{PF}/uncertainty_report.html", category="0 Report", caption="../report/uncertainty.rst",
+               labels={"report": "parameter uncertainty"})
     params: code=CODE["uncertainty-report"]
     log: "results/logs/uncertainty_report.log"
     shell:

@@ -18,8 +18,8 @@ from roboball.sim.spec import SimSpec
 # relative to the robot's start, per kind: looking along the axis the motion turns about
 # (drive and ramp: the drive axle, y; steer stand and shell rock: the steer axis, x).
 FOLLOW = "/drake/visualizer/roboball/pitch_center"
-CAMERA_OFFSET_M = {"ramp": (0.0, -2.4, 0.35), "drive_stand": (0.0, -2.0, 0.3),
-                   "steer_stand": (2.0, 0.0, 0.3), "shell_rock": (2.0, 0.0, 0.3)}
+CAMERA_OFFSET_M = {"ramp": (0.0, -2.0, 0.3), "drive_stand": (0.0, -1.7, 0.25),
+                   "steer_stand": (1.7, 0.0, 0.25), "shell_rock": (1.7, 0.0, 0.25)}
 RAMP_WIDTH_M = 1.2            # scenery only: wide enough to frame the shell (0.61 m across)
 SLAB_M = 0.04                 # thickness of the drawn ramp, floor and stand plates
 # Three.js loop mode "repeat" (THREE.LoopRepeat) and enough repetitions to look endless.
