@@ -190,8 +190,8 @@ def _diagnosis_row(path: str) -> dict:
                       + ")" for m in d.get("missing_physics", [])) or "none"
     fit = d.get("fit", {})
     return {"diagnosed": Path(path).parent.name, "kind": d["kind"], "verdict": d["verdict"], "missing physics": found,
-            f"held-out RMSE before ({fit.get('units', '')})": fit.get("rmse_heldout_before", float("nan")),
-            f"after ({fit.get('units', '')})": fit.get("rmse_heldout_after", float("nan")),
+            "held-out RMSE before": fit.get("rmse_heldout_before", float("nan")),
+            "after": fit.get("rmse_heldout_after", float("nan")), "unit": fit.get("units", ""),
             "supported, below materiality (not added)": _immaterial(Path(path).with_name("details.json")) or "none"}
 
 

@@ -78,6 +78,14 @@ def _ramp_scenery(meshcat, alpha: float, length_m: float, x_end_m: float) -> Non
     x1 = max(x_end_m + 2.0, x0 + 2.0)
     _box(meshcat, "/scenery/floor", (x1 - x0 + 0.5, 3.0, SLAB_M), (0.5 * (x0 + x1), 0.0, z0 - 0.5 * SLAB_M),
          rgba=(0.78, 0.8, 0.82, 1.0))
+    # marks across the ramp every 0.5 m and the floor every metre: the camera follows the robot,
+    # so they are what shows it moving
+    for k in range(int(length_m / 0.5) + 1):
+        _box(meshcat, f"/scenery/ramp_mark_{k}", (0.03, RAMP_WIDTH_M, 0.004), k * 0.5 * d + 0.001 * n, alpha,
+             (0.35, 0.25, 0.15, 1.0))
+    for k in range(int(x1 - x0) + 1):
+        _box(meshcat, f"/scenery/floor_mark_{k}", (0.03, 3.0, 0.004), (x0 + k + 0.5, 0.0, z0 + 0.001),
+             rgba=(0.35, 0.37, 0.4, 1.0))
     # the ramp's support: a post under its top end, so that it stands on the floor
     top = s0 * d
     h = top[2] - z0
