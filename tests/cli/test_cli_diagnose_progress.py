@@ -18,7 +18,7 @@ def test_progress_lines_in_plain_words():
     lines = out.getvalue().splitlines()
     assert len(lines) == 3, lines
     assert lines[0].endswith("diagnosing ramp_13.8kpa_r1.csv: fitting the baseline model ...")
-    assert "baseline fitted (rmse 2.388, held-out 2.388)" in lines[1]
+    assert "baseline fitted (RMS error 2.388, held out 2.388)" in lines[1]
     assert "round 1 done: best model so far viscous_damping + rolling_resistance" in lines[2]
     assert not any("dBIC" in line or "cv stage" in line for line in lines)
 

@@ -67,7 +67,9 @@ class Progress:
         if msg.startswith("baseline:"):
             self.stage = "adding candidate effects, one round at a time"
             if not self.verbose:
-                self.say(f"baseline fitted ({msg.split(':', 1)[1].split(', rho1')[0].strip()}); {self.stage}")
+                fit = msg.split(":", 1)[1].split(", rho1")[0].strip()
+                fit = fit.replace("rmse", "RMS error").replace("held-out", "held out")
+                self.say(f"baseline fitted ({fit}); {self.stage}")
         elif msg.startswith("round:"):
             self.rounds += 1
             self.stage = f"after round {self.rounds}: testing alternatives, then writing the report"
