@@ -79,12 +79,26 @@ def test_real_shell_log_is_unexplained_and_says_where(tmp_path):
     report and in details.json."""
     d, js = diagnose(REAL_STEER.with_name("dynamic_data.csv"), out_dir=tmp_path, drake=False)
     assert js["verdict"] == "unexplained" and js["missing_physics"]
+    # issue 24: the paper's injected terms, a stiffness and a damping (a damped sine from the
+    # turning point gives 0.028 rad; with the 0.04 rad offset at rest, 0.028-0.034)
+    names = {m["effect"] for m in js["missing_physics"]}
+    assert {"linear_stiffness", "viscous_damping"} <= names, names
+    assert js["fit"]["rmse_after"] <= 0.034
     assert sum(loc["share_of_residual"] for loc in js["located"]) <= 1.0 + 1e-9
     assert all(set(loc) == {"start_s", "end_s", "signal", "regime", "share_of_residual"} for loc in js["located"])
     after = json.loads((tmp_path / "details.json").read_text())["located_augmented"]
     report = (tmp_path / "report.md").read_text()
     assert after and "## Unexplained residual" in report
     assert f"{after[0]['start_s']:.2f}-{after[0]['end_s']:.2f} s" in report.split("## Unexplained residual")[1]
+
+
+@pytest.mark.skipif(not REAL_STEER.exists(), reason="real logs not available (../shared/data/roboball_real)")
+@pytest.mark.xfail(strict=True, reason="issue 24, acceptance 1, not met: with one release the held-out test "
+                   "predicts the first big swing from a fit to the small later ones (0.090 rad on that block, "
+                   "0.009 and 0.003 on the others; held-out 0.049 rad)")
+def test_real_shell_log_heldout_rms_is_within_30_mrad():
+    d, js = diagnose(REAL_STEER.with_name("dynamic_data.csv"))
+    assert js["fit"]["rmse_heldout_after"] <= 0.03
 
 
 @pytest.mark.skipif(not REAL_STEER.exists(), reason="real logs not available (../shared/data/roboball_real)")

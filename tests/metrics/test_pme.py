@@ -143,20 +143,20 @@ def test_ramp_sim_posterior_band_is_the_95_percent_range_of_the_draws(tmp_path, 
     def fake_simulate(spec, pipe0, duration, sample_rate_hz=200.0):
         assert spec.kind == "ramp" and pipe0 == pytest.approx(0.2)
         f_w = spec.friction_params["drive"]["f_w"]
+        assert spec.friction_params["drive"]["n"] == 2.0 and spec.friction_params["steer"]["n"] == 2.0
         draws.append(100.0 * f_w)
         t = np.arange(0.0, duration + 0.01, 1.0 / sample_rate_hz)
         return pd.DataFrame({"time_s": t, "drive_rate_rad_s": (1.0 + f_w) * 2.0 * t})
 
     monkeypatch.setattr(roboball.sim.scenarios, "simulate", fake_simulate)
     rng = np.random.default_rng(3)
-    samples = pd.DataFrame({"f_w": rng.uniform(-0.3, 0.3, 200), "f_c": 0.1, "sigma": 0.2, "omega_c": 1.0,
-                            "n": 2.0})
+    samples = pd.DataFrame({"f_w": rng.uniform(-0.3, 0.3, 200), "f_c": 0.1, "sigma": 0.2, "omega_c": 1.0})
     samples.to_csv(tmp_path / "samples.csv", index=False)
     fits = {}
-    for joint in ("steer", "drive"):
+    for joint in ("steer", "drive"):       # n held by the fit: not in its samples, in `fixed`
         fits[joint] = tmp_path / f"{joint}.json"
         fits[joint].write_text(json.dumps({"f_w": 0.05, "f_c": 0.1, "sigma": 0.2, "omega_c": 1.0, "n": 2.0,
-                                           "samples_csv": str(tmp_path / "samples.csv")}))
+                                           "fixed": {"n": 2.0}, "samples_csv": str(tmp_path / "samples.csv")}))
     out = tmp_path / "ramp.csv"
     simulation.ramp_sim("runs/ramp_a.csv", _releases_json(tmp_path / "rel.json"),
                         _regression_csv(tmp_path / "reg.csv"), "point", str(out),
