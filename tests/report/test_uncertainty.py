@@ -11,7 +11,8 @@ import pandas as pd
 import pytest
 
 from roboball.errors import RoboballError
-from roboball.report.uncertainty import table_page, uncertainty_report
+from roboball.report.tables import table_page
+from roboball.report.uncertainty import uncertainty_report
 
 
 def _fit(path, law, converged, bic, joint="steer"):

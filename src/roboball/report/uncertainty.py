@@ -2,7 +2,7 @@
 identified parameter (median and 95% interval), convergence diagnostics, the model comparisons,
 the shell regressions, the hydroelastic sweep, the PME table with posterior intervals and the
 diagnoses; red flags first, for every unconverged chain and every recommendation that rests on
-one.  Also the paper tables as HTML pages, for the Snakemake report.
+one.
 """
 from __future__ import annotations
 
@@ -20,9 +20,9 @@ from roboball.errors import RoboballError
 from roboball.identify.friction.comparison import recommendation
 from roboball.identify.friction.results import read_fit
 from roboball.report import markdown
-from roboball.report.uncertainty_page import CSS, PAGE, TABLE_PAGE, png_data_uri
+from roboball.report.uncertainty_page import CSS, PAGE, png_data_uri
 
-STAGES = ("uncertainty_report", "table_page")
+STAGES = ("uncertainty_report",)
 
 # The Snakemake report embeds each result as a data URI; Chromium opens none over 2 MiB.
 DATA_URI_LIMIT = 2 * 1024 * 1024
@@ -257,10 +257,3 @@ def uncertainty_report(fits: list, comparisons: list, regression: str, pme_table
         raise RoboballError(f"{out_html}: {n} bytes, over the 2 MiB a browser opens as the Snakemake report's data URI")
     write_text_atomic(out_html, page)
 
-
-def table_page(md: str, out_html: str) -> None:
-    """One of the paper's Markdown tables as an HTML page (for the Snakemake report)."""
-    text = Path(md).read_text(encoding="utf-8")
-    title = next((t for k, t in markdown.blocks(text) if k == "h1"), Path(md).stem)
-    write_text_atomic(out_html, TABLE_PAGE.render(css=CSS, title=re.sub("<[^>]+>", "", title),
-                                                  body=markdown.to_html(text), source=Path(md).name))
