@@ -25,7 +25,8 @@ def test_simulate_writes_a_readable_recording(tmp_path):
 
 
 @pytest.mark.parametrize("args,needle", [
-    (["simulate", "shell_rock", "--contact", "injected", "--pressure-kpa", "10"], "--zeta"),
+    (["simulate", "shell_rock", "--contact", "injected", "--pressure-kpa", "10", "--regression", "no/such.csv"], "--zeta"),
+    (["simulate", "ramp"], "--pressure-kpa"),                      # whatever the contact: the recording needs it
     (["simulate", "steer_stand", "--dt", "0.02"], "10 ms"),
     (["simulate", "ramp", "--contact", "hydroelastic", "--zeta", "0.1", "--omega-n", "2.8"], "--pressure-kpa"),
     (["simulate", "ramp", "--pressure-kpa", "-3"], "pressure"),
@@ -37,3 +38,37 @@ def test_simulate_bad_flags_give_one_line_errors(tmp_path, args, needle):
     assert len(lines) == 1 and needle in lines[0], r.stderr
     assert "Traceback" not in r.stderr
     assert not (tmp_path / "x.csv").exists()
+
+
+def test_shell_numbers_come_from_the_pipelines_regression_and_it_says_so(tmp_path):
+    reg = tmp_path / "shell_regression.csv"
+    # zeta(p) = a exp(b p), omega_n(p) = c + d p: 0.1 and 2.8 rad/s at any pressure
+    reg.write_text("name,value\nzeta_a,0.1\nzeta_b,0.0\nomega_n_c,2.8\nomega_n_d,0.0\n")
+    out = tmp_path / "rock.csv"
+    r = subprocess.run(ROBOBALL + ["simulate", "shell_rock", "--contact", "injected", "--pressure-kpa", "13.8",
+                                   "--regression", str(reg), "--release", "0.1", "--duration", "6", "--out", str(out)],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert f"zeta 0.1, omega_n 2.8 rad/s (from the pipeline's regression, {reg})" in r.stdout
+    rec = read_recording(out)
+    assert rec.meta["simulation"]["zeta"] == 0.1 and rec.meta["simulation"]["omega_n_rad_s"] == 2.8
+    bad = tmp_path / "bad.csv"
+    bad.write_text("name,value\nzeta_a,0.1\n")
+    r = subprocess.run(ROBOBALL + ["simulate", "shell_rock", "--contact", "injected", "--pressure-kpa", "13.8",
+                                   "--regression", str(bad), "--out", str(tmp_path / "x.csv")], capture_output=True, text=True)
+    assert r.returncode != 0 and "not a shell regression table" in r.stderr and "Traceback" not in r.stderr
+
+
+def test_every_simulate_option_says_its_unit_and_default():
+    from roboball.cli.main import _load_plugins, build_parser
+    _load_plugins()
+    sub = next(a for a in build_parser()._actions if a.dest == "command").choices
+    for name in ("simulate", "diagnose"):
+        for action in sub[name]._actions:
+            if action.dest in ("help", "kind", "recording") or action.required:
+                continue
+            assert "default" in (action.help or ""), (name, action.option_strings)
+    units = {a.dest: a.help for a in sub["simulate"]._actions}
+    for dest, unit in (("pressure_kpa", "kPa"), ("omega_n", "rad/s"), ("release", "rad"), ("duration", "(s;"),
+                       ("dt", "(s,"), ("sample_rate_hz", "Hz"), ("hydro_modulus", "Pa"), ("hydro_dissipation", "s/m")):
+        assert unit in units[dest], dest

@@ -90,6 +90,9 @@ def test_every_listed_figure_and_table_is_built(built):
         assert at["diagnosed"] < min(at["point"], at["injected"], at["hydroelastic"]), (p, at.to_dict())
     for scenario in ["steer_stand", "drive_stand", "shell_rock", "ramp"]:
         assert (built / "results" / "replays" / f"{scenario}.html").stat().st_size > 100_000, scenario
+    # one copy of the viewer code beside them; the gallery under the report's 2 MiB data URIs
+    assert (built / "results" / "replays" / "meshcat.js").stat().st_size > 1_000_000
+    assert 500_000 < (built / "results" / "replays" / "index.html").stat().st_size < 1_500_000
     # The real steer-stand log goes through the same rules (issue 4, acceptance 5).
     if REAL_DATA.is_dir():
         assert (pf / "fig7_real_steer_fits.png").stat().st_size > 10_000
@@ -129,7 +132,8 @@ def test_touching_one_ramp_log_reruns_only_its_jobs(built):
         assert planned.get("ramp_diagnosed") == 3    # every run at 13.8 kPa: its own csv or a diagnosis changed
         assert "diagnose" not in planned
         assert set(planned) <= {"ingest", "ramp_sim", "diagnose_ramp_pressure", "diagnose_ramp_heldout",
-                                "ramp_diagnosed", "ramp_summary", "fig13_14", "uncertainty_report", "all"}, planned
+                                "ramp_diagnosed", "ramp_summary", "fig13_14", "uncertainty_report",
+                                "table_page", "all"}, planned      # table_page: the PME table's report page
     finally:
         log.write_bytes(original)                    # the old content again: nothing to redo
     assert _planned(built) == {}
@@ -148,7 +152,7 @@ def test_editing_one_friction_prior_reruns_only_that_fit(built):
     real = REAL_DATA.is_dir()
     assert planned.get("friction_fit") == 1 + real, planned
     assert set(planned) <= {"friction_fit", "friction_comparison", "table1", "fig5", "fig_stand", "corner",
-                            "uncertainty_report", "all"}, planned
+                            "uncertainty_report", "table_page", "all"}, planned
     # ... and the rerun samples that posterior afresh: the stored chain of the old prior (the
     # rule's resumable cache) is neither refused nor resumed
     fit = built / "results" / "friction" / "testbed" / "steer_coulomb_viscous.json"

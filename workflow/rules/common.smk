@@ -92,6 +92,10 @@ DEFLATE = config.get("deflating_ramp", {})
 DEFLATE_SCHEDULE = DEFLATE.get("schedule", {})
 
 PF = "paper_figures"
+# The paper tables the Snakemake report shows (rule table_page), by file stem.
+# Numbered: the report sorts its labels as text.
+TABLE_NAMES = {"table1_friction": "1. Table I: joint friction", "table2_robot": "2. Table II: the robot's numbers",
+               "table_pme": "3. PME (eq. 12) by contact model and pressure", "table_sweep": "4. Hydroelastic sweep"}
 
 
 ##### file names #####
@@ -132,14 +136,31 @@ def final_targets():
         f"{PF}/fig13_ramp_pme.png", f"{PF}/fig14_ramp_pme_mean.png",
         f"{PF}/table_pme.csv", f"{PF}/table_pme.md", f"{PF}/table_sweep.md", f"{PF}/table2_robot.md",
     ]
-    targets += [f"results/replays/{s}.html" for s in REPLAYS]
+    targets += [f"results/replays/{s}.html" for s in REPLAYS] + ["results/replays/meshcat.js", "results/replays/index.html"]
     targets += [f"{PF}/fig5_friction_laws.png", f"{PF}/table1_friction.md",
                 f"{PF}/fig7_testbed_steer_fits.png", f"{PF}/fig8_testbed_drive_fits.png"]
     targets += [f"{PF}/corner/corner_{d}_{j}_{l}.png" for d, j, l in FITS]
     if REAL_ON:
         targets += [f"{PF}/fig7_real_steer_fits.png"]
     targets += [f"{PF}/uncertainty_report.html", f"{PF}/figS1_deflating_ramp.png"]
+    targets += [f"results/report/{t}.html" for t in TABLE_NAMES]
     return targets
+
+
+##### report labels #####
+
+def pressure_label(p):
+    """A pressure as the Snakemake report's label: zero-padded ("06.9"), because the report sorts
+    labels as text, which would put 20.7 before 6.9."""
+    if p in (None, "") or p != p:            # the real logs' (unknown) and the stands' (NaN: no shell)
+        return "-"
+    return f"{float(p):04.1f}"
+
+
+def qc_labels(wildcards):
+    """The QC plot's labels: kind, pressure (kPa), recording, in the report's sort order."""
+    r = REC[wildcards.stem]
+    return {"kind": r["kind"], "pressure (kPa)": pressure_label(r["pressure_kpa"]), "recording": wildcards.stem}
 
 
 ##### input functions #####

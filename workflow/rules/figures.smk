@@ -31,7 +31,8 @@ rule table2:
 rule fig5:
     input: fit_jsons("testbed")
     output:
-        png=report(f"{PF}/fig5_friction_laws.png", category="2 Friction", caption="../report/fig5.rst"),
+        png=report(f"{PF}/fig5_friction_laws.png", category="2 Friction", caption="../report/fig5.rst",
+                   labels={"figure": "Fig. 5", "dataset": "testbed", "joint": "steer, drive", "law": "every law"}),
         pdf=f"{PF}/fig5_friction_laws.pdf",
     params: code=CODE["fig5"]
     log: "results/logs/fig5.log"
@@ -43,7 +44,8 @@ rule fig_stand:
         unpack(get_stand_recording),
         fits=get_stand_fits,
     output:
-        png=report(f"{PF}/fig{{num}}_{{dataset}}_{{joint}}_fits.png", category="2 Friction", caption="../report/fig78.rst"),
+        png=report(f"{PF}/fig{{num}}_{{dataset}}_{{joint}}_fits.png", category="2 Friction", caption="../report/fig78.rst",
+                   labels={"figure": "Fig. {num}", "dataset": "{dataset}", "joint": "{joint}", "law": "every law"}),
         pdf=f"{PF}/fig{{num}}_{{dataset}}_{{joint}}_fits.pdf",
     params:
         code=CODE["fig-stand-fits"],
@@ -61,7 +63,8 @@ rule fig10:
         regression="results/identify/shell_regression.csv",
         sims="results/shell_sim/summary.csv",
     output:
-        png=report(f"{PF}/fig10_shell_dynamics.png", category="3 Shell", caption="../report/fig10.rst"),
+        png=report(f"{PF}/fig10_shell_dynamics.png", category="3 Shell", caption="../report/fig10.rst",
+                   labels={"figure": "Fig. 10: shell dynamics"}),
         pdf=f"{PF}/fig10_shell_dynamics.pdf",
     params: code=CODE["fig10"], campaign=config.get("campaign", "")
     log: "results/logs/fig10.log"
@@ -75,7 +78,8 @@ rule fig11:
         sweep="results/sweep/summary.csv",
         points="results/identify/shell_points.csv",
     output:
-        png=report(f"{PF}/fig11_hydro_sensitivity.png", category="3 Shell", caption="../report/fig11.rst"),
+        png=report(f"{PF}/fig11_hydro_sensitivity.png", category="3 Shell", caption="../report/fig11.rst",
+                   labels={"figure": "Fig. 11: hydroelastic sensitivity"}),
         pdf=f"{PF}/fig11_hydro_sensitivity.pdf",
         table=f"{PF}/table_sweep.csv",
         md=f"{PF}/table_sweep.md",
@@ -94,8 +98,10 @@ rule fig11:
 rule fig13_14:
     input: "results/ramp/summary.csv"
     output:
-        fig13=report(f"{PF}/fig13_ramp_pme.png", category="4 Ramp", caption="../report/fig13.rst"),
-        fig14=report(f"{PF}/fig14_ramp_pme_mean.png", category="4 Ramp", caption="../report/fig14.rst"),
+        fig13=report(f"{PF}/fig13_ramp_pme.png", category="4 Ramp", caption="../report/fig13.rst",
+                     labels={"figure": "Fig. 13: PME by pressure"}),
+        fig14=report(f"{PF}/fig14_ramp_pme_mean.png", category="4 Ramp", caption="../report/fig14.rst",
+                     labels={"figure": "Fig. 14: PME over all pressures"}),
         pdfs=[f"{PF}/fig13_ramp_pme.pdf", f"{PF}/fig14_ramp_pme_mean.pdf"],
         csv=f"{PF}/table_pme.csv",
         md=f"{PF}/table_pme.md",
@@ -109,7 +115,8 @@ rule fig13_14:
 rule corner:
     input: "results/friction/{dataset}/{joint}_{law}.json"
     output:
-        png=report(f"{PF}/corner/corner_{{dataset}}_{{joint}}_{{law}}.png", category="2 Friction", caption="../report/corner.rst"),
+        png=report(f"{PF}/corner/corner_{{dataset}}_{{joint}}_{{law}}.png", category="2 Friction", caption="../report/corner.rst",
+                   labels={"figure": "corner plot", "dataset": "{dataset}", "joint": "{joint}", "law": "{law}"}),
         pdf=f"{PF}/corner/corner_{{dataset}}_{{joint}}_{{law}}.pdf",
     params: code=CODE["corner-plot"]
     wildcard_constraints: dataset="testbed|real", joint="steer|drive", law="viscous|coulomb_viscous|majd"

@@ -9,7 +9,7 @@ rule ingest:
         csv="results/ingest/{stem}.csv",
         sidecar="results/ingest/{stem}.json",
         releases="results/ingest/{stem}.releases.json",
-        qc=report("results/qc/{stem}.png", category="1 Ingest", caption="../report/qc.rst"),
+        qc=report("results/qc/{stem}.png", category="1 Ingest", caption="../report/qc.rst", labels=qc_labels),
         qc_pdf="results/qc/{stem}.pdf",           # written beside the PNG (roboball.figures.style.save)
     params:
         code=CODE["ingest"],

@@ -97,17 +97,44 @@ rule ramp_summary:
 
 rule replay:
     input: regression="results/identify/shell_regression.csv"
-    output: report("results/replays/{scenario}.html", category="5 Replays", caption="../report/replay.rst")
+    output:
+        html="results/replays/{scenario}.html",
+        scene="results/replays/{scenario}.scene.json",
     params:
         code=CODE["replay"],
         contact=lambda w: REPLAYS[w.scenario][0],
         release=lambda w: REPLAYS[w.scenario][1],
         d=config["shell"]["carried_forward"]["dissipation_scale"],
+        length=config["ramp"].get("replay_length_m", 2.0),
     log: "results/logs/replay/{scenario}.log"
     benchmark: "results/benchmarks/replay/{scenario}.tsv"
     shell:
         "{ROBOBALL} replay --kind {wildcards.scenario} --contact {params.contact} --regression {input.regression} "
-        "--release {params.release} --dissipation-scale {params.d} --out-html {output} > {log} 2>&1"
+        "--release {params.release} --dissipation-scale {params.d} --ramp-length-m {params.length} "
+        "--out-html {output.html} --out-scene {output.scene} > {log} 2>&1"
+
+
+# Meshcat's viewer code, once: every replay page in results/replays/ loads it.
+rule replay_viewer:
+    output: "results/replays/meshcat.js"
+    params: code=CODE["replay-viewer"]
+    log: "results/logs/replay/viewer.log"
+    shell: "{ROBOBALL} replay-viewer --out-js {output} > {log} 2>&1"
+
+
+# Every replay in one self-contained page (the viewer compressed once): the Snakemake report
+# embeds results as data URIs, which Chromium opens only under 2 MiB.
+rule replay_gallery:
+    input:
+        # the ramp first: it is the experiment the paper scores
+        scenes=expand("results/replays/{scenario}.scene.json", scenario=sorted(REPLAYS, key=lambda s: s != "ramp")),
+        viewer="results/replays/meshcat.js",
+    output:
+        report("results/replays/index.html", category="5 Replays", caption="../report/replay.rst",
+               labels={"replays": "every kind: stands, shell rock, ramp"})
+    params: code=CODE["replay-gallery"]
+    log: "results/logs/replay/gallery.log"
+    shell: "{ROBOBALL} replay-gallery --scenes {input.scenes} --viewer {input.viewer} --out-html {output} > {log} 2>&1"
 
 
 rule figS1_deflating_ramp:
@@ -115,7 +142,8 @@ rule figS1_deflating_ramp:
         regression="results/identify/shell_regression.csv",
         schedule=[DEFLATE_SCHEDULE["csv"]] if "csv" in DEFLATE_SCHEDULE else [],
     output:
-        png=report(f"{PF}/figS1_deflating_ramp.png", category="6 Beyond the paper", caption="../report/figS1.rst"),
+        png=report(f"{PF}/figS1_deflating_ramp.png", category="6 Beyond the paper", caption="../report/figS1.rst",
+                   labels={"figure": "Fig. S1: deflating ramp"}),
         pdf=f"{PF}/figS1_deflating_ramp.pdf",
         csv="results/deflating/figS1_traces.csv",
     params:

@@ -38,6 +38,55 @@ def _pressure(text: str) -> float:
         raise argparse.ArgumentTypeError(f"--pressure-kpa must be a number, got '{text}'")
 
 
+class Progress:
+    """Progress lines on stderr while a diagnosis runs (tens of seconds on a long log): the
+    baseline and each selection round in plain words as they finish, and a line every
+    `every_s` seconds of silence (the Drake simulations of the report say nothing).  With
+    `verbose`, every message of the search as it comes (BIC differences, held-out errors)."""
+
+    def __init__(self, label: str, verbose: bool = False, every_s: float = 10.0, out=None):
+        import sys
+        import threading
+
+        self.t0 = self.last = time.perf_counter()
+        self.verbose, self.every_s, self.out = verbose, every_s, out or sys.stderr
+        self.rounds, self.stage = 0, "fitting the baseline model"
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._heartbeat, daemon=True)
+        self.say(f"diagnosing {label}: {self.stage} ...")
+        self._thread.start()
+
+    def say(self, text: str) -> None:
+        self.last = time.perf_counter()
+        print(f"[{self.last - self.t0:5.1f} s] {text}", file=self.out, flush=True)
+
+    def __call__(self, msg: str) -> None:
+        """The search's log messages (roboball.diagnose.select), translated."""
+        if self.verbose:
+            self.say(msg)
+        if msg.startswith("baseline:"):
+            self.stage = "adding candidate effects, one round at a time"
+            if not self.verbose:
+                fit = msg.split(":", 1)[1].split(", rho1")[0].strip()
+                fit = fit.replace("rmse", "RMS error").replace("held-out", "held out")
+                self.say(f"baseline fitted ({fit}); {self.stage}")
+        elif msg.startswith("round:"):
+            self.rounds += 1
+            self.stage = f"after round {self.rounds}: testing alternatives, then writing the report"
+            if not self.verbose:
+                best = msg.split(";", 1)[0].removeprefix("round: best so far ").replace("+", " + ")
+                self.say(f"round {self.rounds} done: best model so far {best}")
+
+    def _heartbeat(self) -> None:
+        while not self._stop.wait(1.0):
+            if time.perf_counter() - self.last >= self.every_s:
+                self.say(f"still working ({self.stage})")
+
+    def close(self) -> None:
+        self._stop.set()
+        self._thread.join()
+
+
 def cmd_diagnose(args) -> int:
     from roboball.diagnose import diagnose
     from roboball.diagnose.scored import Settings
@@ -49,13 +98,15 @@ def cmd_diagnose(args) -> int:
             raise RoboballError(f"{path}: file not found")
     output_folder(args.out, create=False)
     friction = read_joint_friction(args.friction_steer, args.friction_drive)
-    log = print if args.verbose else None
     label = " + ".join(args.recording)
+    progress = Progress(label, verbose=args.verbose)
     try:
         d, js = diagnose(args.recording, out_dir=args.out, kind=args.kind, pressure_kpa=args.pressure_kpa,
-                         settings=Settings(), drake=not args.no_drake, log=log, friction=friction or None)
+                         settings=Settings(), drake=not args.no_drake, log=progress, friction=friction or None)
     except ValueError as exc:     # e.g. a model that cannot represent the recording's kind
         raise RoboballError(f"{label}: {exc}")
+    finally:
+        progress.close()
     found = ", ".join(m["effect"] for m in js["missing_physics"]) or "nothing missing"
     f = js["fit"]
     print(f"{label}: {js['verdict']} ({found}); rms {f['rmse_before']:.4g} -> {f['rmse_after']:.4g} "
@@ -71,12 +122,16 @@ def _register(sub):
                    help="recording CSV (with its JSON sidecar) or an authors' native log; several recordings of "
                         "one experiment (same kind, pressure, ramp angle) are diagnosed together")
     p.add_argument("--out", required=True, help="output folder (diagnosis.json, report.md, figures)")
-    p.add_argument("--kind", type=_kind, default=None, help="experiment kind (overrides the sidecar)")
-    p.add_argument("--pressure-kpa", type=_pressure, default=None, help="shell pressure (overrides the sidecar)")
+    p.add_argument("--kind", type=_kind, default=None, help="experiment kind (default: the sidecar's)")
+    p.add_argument("--pressure-kpa", type=_pressure, default=None, metavar="KPA",
+                   help="shell gauge pressure (kPa; default: the sidecar's)")
     p.add_argument("--friction-steer", default=None, metavar="FIT.json",
-                   help="ramp baseline: Majd steer friction from a fit (roboball's fit JSON) instead of Table I")
+                   help="ramp baseline: Majd steer friction from a fit (roboball's fit JSON; default: Table I)")
     p.add_argument("--friction-drive", default=None, metavar="FIT.json",
-                   help="ramp baseline: Majd drive friction from a fit instead of Table I")
-    p.add_argument("--no-drake", action="store_true", help="skip the Drake simulations of the report")
-    p.add_argument("--verbose", action="store_true", help="print the selection rounds")
+                   help="ramp baseline: Majd drive friction from a fit (default: Table I)")
+    p.add_argument("--no-drake", action="store_true",
+                   help="skip the Drake simulations of the report (default: run them)")
+    p.add_argument("--verbose", action="store_true",
+                   help="print every step of the search (BIC differences, held-out errors) instead of the "
+                        "plain progress lines (default: off)")
     p.set_defaults(func=cmd_diagnose)

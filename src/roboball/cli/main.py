@@ -45,6 +45,30 @@ def _number(name):
     return conv
 
 
+def _shell_from_regression(args) -> None:
+    """Fill in the shell's --zeta and --omega-n at the pressure from the pipeline's regression
+    (`make figures` writes it) when the contact model needs them and they were not given, and
+    say so; a one-line error naming the flags when there is no regression to take them from."""
+    needs = args.contact in ("injected", "hydroelastic") and (args.zeta is None or args.omega_n is None) \
+        and not (args.contact == "hydroelastic" and args.hydro_dissipation is not None)
+    if not needs or args.pressure_kpa is None:
+        return
+    if not args.regression.is_file():
+        raise RoboballError(f"contact '{args.contact}' needs the shell's --zeta and --omega-n at {args.pressure_kpa:g} kPa: "
+                            f"give them, or run `make figures` to write {args.regression} (or point --regression at it)")
+    from roboball.pipeline.simulation import shell_at
+
+    try:
+        zeta, omega = shell_at(str(args.regression), args.pressure_kpa)
+    except (KeyError, ValueError) as exc:
+        raise RoboballError(f"{args.regression}: not a shell regression table (columns name, value; rows zeta_a, "
+                            f"zeta_b, omega_n_c, omega_n_d): {exc}") from None
+    args.zeta = args.zeta if args.zeta is not None else zeta
+    args.omega_n = args.omega_n if args.omega_n is not None else omega
+    print(f"shell at {args.pressure_kpa:g} kPa: zeta {args.zeta:.4g}, omega_n {args.omega_n:.4g} rad/s "
+          f"(from the pipeline's regression, {args.regression})")
+
+
 def cmd_simulate(args) -> int:
     from roboball.checks import load_checked_robot
     from roboball.config import ROBOT_YAML
@@ -55,8 +79,9 @@ def cmd_simulate(args) -> int:
 
     if args.dt > 0.01:
         raise RoboballError(f"--dt {args.dt}: time step above 10 ms is not allowed (contact and friction become inaccurate)")
-    if args.kind in ("shell_rock", "ramp") and args.pressure_kpa is None and args.contact != "point":
-        raise RoboballError(f"--pressure-kpa is required for {args.kind} with contact '{args.contact}'")
+    if args.kind in ("shell_rock", "ramp") and args.pressure_kpa is None:
+        # the recording says its shell pressure, whatever the contact model makes of it
+        raise RoboballError(f"--pressure-kpa is required for {args.kind} (the shell's gauge pressure, kPa)")
     if args.pressure_kpa is not None and not (0 < args.pressure_kpa <= 500):
         raise RoboballError(f"--pressure-kpa {args.pressure_kpa}: must be in (0, 500] kPa gauge")
     if abs(args.release) > math.pi:
@@ -65,15 +90,14 @@ def cmd_simulate(args) -> int:
         raise RoboballError(f"--sample-rate-hz {args.sample_rate_hz:g}: faster than the time step ({1 / args.dt:g} Hz "
                             f"at --dt {args.dt:g}); lower the rate or the step")
     robot = load_checked_robot(ROBOT_YAML)   # schema + physics, before anything runs
+    _shell_from_regression(args)
     shell = ShellParams(zeta=args.zeta, omega_n=args.omega_n, hydro_modulus=args.hydro_modulus,
                         hydro_dissipation=args.hydro_dissipation)
-    if args.contact in ("injected", "hydroelastic") and (args.zeta is None or args.omega_n is None) \
-            and not (args.contact == "hydroelastic" and args.hydro_dissipation is not None):
-        raise RoboballError(f"contact '{args.contact}' needs the shell's --zeta and --omega-n at the pressure "
-                            "(from the pipeline's shell regression, results/identify/shell_regression.csv)")
     friction = {"steer": args.friction_steer or args.friction, "drive": args.friction_drive or args.friction}
     spec = SimSpec(kind=args.kind, contact=args.contact, friction=friction, pressure_kpa=args.pressure_kpa,
                    shell=shell, dt=args.dt, robot=robot)
+    print(f"simulating {args.duration:g} s of {args.kind} (contact {args.contact}, time step {args.dt:g} s) ...",
+          flush=True)
     try:
         df = simulate(spec, args.release, args.duration, sample_rate_hz=args.sample_rate_hz,
                       max_wall_s=args.max_wall_s)
@@ -116,25 +140,38 @@ def build_parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True)
 
     s = sub.add_parser("simulate", help="simulate one experiment in Drake and write a recording")
-    s.add_argument("kind", choices=SIMULATED)
-    s.add_argument("--contact", choices=("point", "injected", "hydroelastic"), default="point")
+    s.add_argument("kind", choices=SIMULATED, help="the experiment to simulate")
+    s.add_argument("--contact", choices=("point", "injected", "hydroelastic"), default="point",
+                   help="shell-ground contact model (default: point, the rigid shell)")
     s.add_argument("--friction", choices=FRICTION_CHOICES, default="none",
                    help="friction law on both joints, Table I values (default: none)")
-    s.add_argument("--friction-steer", choices=FRICTION_CHOICES, help="override the steer joint's law")
-    s.add_argument("--friction-drive", choices=FRICTION_CHOICES, help="override the drive joint's law")
-    s.add_argument("--pressure-kpa", type=_number("--pressure-kpa"))
-    s.add_argument("--zeta", type=_positive("--zeta"), help="shell damping ratio at the pressure")
-    s.add_argument("--omega-n", type=_positive("--omega-n"), help="shell natural frequency (rad/s)")
-    s.add_argument("--hydro-modulus", type=_positive("--hydro-modulus"), help="override eq. 10 (Pa)")
-    s.add_argument("--hydro-dissipation", type=_positive("--hydro-dissipation"), help="override eq. 11 (s/m)")
-    s.add_argument("--release", type=_number("--release"), default=0.05,
-                   help="initial angle of the main coordinate (rad), released from rest")
-    s.add_argument("--duration", type=_positive("--duration"), default=10.0)
-    s.add_argument("--dt", type=_positive("--dt"), default=1e-3)
-    s.add_argument("--sample-rate-hz", type=_positive("--sample-rate-hz"), default=100.0)
-    s.add_argument("--max-wall-s", type=_positive("--max-wall-s"), default=None,
-                   help="give up (stuck integrator) after this much wall time; default $ROBOBALL_SIM_MAX_WALL_S or none")
-    s.add_argument("--out", required=True, type=Path)
+    s.add_argument("--friction-steer", choices=FRICTION_CHOICES, help="override the steer joint's law (default: --friction)")
+    s.add_argument("--friction-drive", choices=FRICTION_CHOICES, help="override the drive joint's law (default: --friction)")
+    s.add_argument("--pressure-kpa", type=_number("--pressure-kpa"), metavar="KPA",
+                   help="shell gauge pressure (kPa); required for shell_rock and ramp (default: none)")
+    s.add_argument("--zeta", type=_positive("--zeta"), metavar="RATIO",
+                   help="shell damping ratio at the pressure (dimensionless; default: from --regression)")
+    s.add_argument("--omega-n", type=_positive("--omega-n"), metavar="RAD_S",
+                   help="shell natural frequency at the pressure (rad/s; default: from --regression)")
+    s.add_argument("--regression", type=Path, default=Path("results/identify/shell_regression.csv"), metavar="CSV",
+                   help="the pipeline's shell regression, where injected and hydroelastic contact take --zeta and "
+                        "--omega-n from when not given (default: %(default)s)")
+    s.add_argument("--hydro-modulus", type=_positive("--hydro-modulus"), metavar="PA",
+                   help="override eq. 10's hydroelastic modulus (Pa; default: eq. 10 at the pressure)")
+    s.add_argument("--hydro-dissipation", type=_positive("--hydro-dissipation"), metavar="S_M",
+                   help="override eq. 11's Hunt-Crossley dissipation (s/m; default: eq. 11 at the pressure)")
+    s.add_argument("--release", type=_number("--release"), default=0.05, metavar="RAD",
+                   help="initial angle of the main coordinate, released from rest (rad; default: %(default)s)")
+    s.add_argument("--duration", type=_positive("--duration"), default=10.0, metavar="S",
+                   help="simulated time (s; default: %(default)s)")
+    s.add_argument("--dt", type=_positive("--dt"), default=1e-3, metavar="S",
+                   help="time step of the discrete plant (s, at most 0.01; default: %(default)s)")
+    s.add_argument("--sample-rate-hz", type=_positive("--sample-rate-hz"), default=100.0, metavar="HZ",
+                   help="rate of the written recording (Hz; default: %(default)s)")
+    s.add_argument("--max-wall-s", type=_positive("--max-wall-s"), default=None, metavar="S",
+                   help="give up (stuck integrator) after this much wall time (s; default: $ROBOBALL_SIM_MAX_WALL_S or none)")
+    s.add_argument("--out", required=True, type=Path, metavar="CSV",
+                   help="recording to write (CSV, with its JSON sidecar beside it)")
     s.set_defaults(func=cmd_simulate)
 
     c = sub.add_parser("check-config", help="validate configs/*.yaml against their schemas and the robot's physics")
@@ -142,8 +179,8 @@ def build_parser() -> argparse.ArgumentParser:
     c.set_defaults(func=cmd_check_config)
 
     u = sub.add_parser("urdf", help="print (or write) the URDF generated from configs/robot.yaml")
-    u.add_argument("--robot", default=None, help="robot facts YAML (default configs/robot.yaml)")
-    u.add_argument("--out", type=Path)
+    u.add_argument("--robot", default=None, help="robot facts YAML (default: configs/robot.yaml)")
+    u.add_argument("--out", type=Path, help="URDF file to write (default: print it)")
     u.set_defaults(func=cmd_urdf)
 
     for register in _EXTRA_COMMANDS:

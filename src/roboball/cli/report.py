@@ -31,5 +31,5 @@ def _register(sub):
     r.add_argument("--results", type=Path, default=Path("results"), help="results folder (default results/)")
     r.add_argument("--figures", type=Path, default=Path("paper_figures"),
                    help="paper figures folder, for table_pme.csv (default paper_figures/)")
-    r.add_argument("--out", type=Path, help="write the Markdown here instead of printing it")
+    r.add_argument("--out", type=Path, help="write the Markdown here (default: print it)")
     r.set_defaults(func=cmd_report)

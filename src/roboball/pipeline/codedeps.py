@@ -19,9 +19,10 @@ from pathlib import Path
 PACKAGE_ROOT = Path(__file__).resolve().parents[1]        # .../src/roboball
 PACKAGE = "roboball"
 # The stage modules, in the order `roboball stage` searches them (roboball.cli.stage).
-STAGE_MODULES = ("roboball.pipeline.ident", "roboball.pipeline.simulation", "roboball.figures.paper",
-                 "roboball.figures.friction", "roboball.report.uncertainty", "roboball.pipeline.friction",
-                 "roboball.pipeline.deflating", "roboball.pipeline.diagnosis")
+STAGE_MODULES = ("roboball.pipeline.ident", "roboball.pipeline.replays", "roboball.pipeline.simulation",
+                 "roboball.figures.paper", "roboball.figures.friction", "roboball.report.uncertainty",
+                 "roboball.report.tables", "roboball.pipeline.friction", "roboball.pipeline.deflating",
+                 "roboball.pipeline.diagnosis")
 ROBOT_FACTS_READER = "roboball.config"
 # Run by every stage besides its own closure: the runner that turns `roboball stage NAME --arg`
 # into the call (only its own file: its imports are the CLI's, not the stage's).
