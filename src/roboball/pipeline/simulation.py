@@ -15,7 +15,7 @@ from roboball.errors import RoboballError
 from roboball.metrics import pme, speed_errors
 from roboball.physics import shell as shell_laws
 
-STAGES = ("shell_sim", "ramp_sim", "summarise", "replay")
+STAGES = ("shell_sim", "ramp_sim", "summarise")
 
 
 # ---- shell regressions -> per-pressure shell parameters ------------------------------------
@@ -157,30 +157,3 @@ def _samples_and_held(fit_json) -> tuple[str, dict]:
 def summarise(inputs: list, out_csv: str) -> None:
     """Concatenate per-job CSV rows into one table."""
     write_csv_atomic(pd.concat([pd.read_csv(p) for p in sorted(inputs)], ignore_index=True), out_csv)
-
-
-def replay(kind: str, contact: str, out_html: str, regression: str = "", pressure_kpa: float = 13.8,
-           release: float = 0.3, duration: float = 4.0, dissipation_scale: float = 1.0) -> None:
-    """A self-contained HTML replay (Drake Meshcat recording) of one simulated run."""
-    from pydrake.geometry import Meshcat, MeshcatParams
-    from pydrake.systems.analysis import Simulator
-
-    from roboball.atomic import write_text_atomic
-    from roboball.sim.plant import build
-    from roboball.sim.scenarios import set_release
-    from roboball.sim.spec import ShellParams, SimSpec
-
-    shell = ShellParams(dissipation_scale=dissipation_scale, injected_steer=kind != "ramp")
-    if regression:
-        shell.zeta, shell.omega_n = shell_at(regression, pressure_kpa)
-    spec = SimSpec(kind=kind, contact=contact, friction={"steer": "majd", "drive": "majd"},
-                   pressure_kpa=pressure_kpa, shell=shell)
-    meshcat = Meshcat(MeshcatParams(host="localhost", port=None))   # loopback only, any free port
-    built = build(spec, meshcat=meshcat)
-    vis = next(s for s in built.diagram.GetSystems() if s.get_name().startswith("meshcat_visualizer"))
-    sim = Simulator(built.diagram)
-    set_release(built, sim.get_mutable_context(), release)
-    vis.StartRecording()
-    sim.AdvanceTo(duration)
-    vis.PublishRecording()
-    write_text_atomic(out_html, meshcat.StaticHtml())
