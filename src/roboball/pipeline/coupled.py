@@ -88,7 +88,7 @@ def table_markdown(table: pd.DataFrame, summary: dict) -> str:
              "|---|---|---|---|---|---|"]
     for _, r in table.iterrows():
         p = "-" if pd.isna(r.pressure_kpa) else f"{r.pressure_kpa:.1f}"
-        lines.append(f"| {r.model} | {r["repeat"]} | {'yes' if r.held_out else 'no (in-sample)'} | {p} | "
+        lines.append(f"| {r.model} | {r['repeat']} | {'yes' if r.held_out else 'no (in-sample)'} | {p} | "
                      f"{r.rms_pipe_angle_rad:.4f} | {r.rms_steer_angle_rad:.4f} |")
     pf, af = summary["pressure"], summary["authors_objective"]
     lines += ["", f"Pressure (not logged), fitted with the injected model, shared by the three repeats: "
