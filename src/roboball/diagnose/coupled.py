@@ -117,7 +117,8 @@ def fit_pressure(reps: list[Repeat], laws, friction: dict, grid=PRESSURE_GRID_KP
     p_best, fine, curve = _spline_min(grid, table.sum(axis=1))
     n = sum(len(COORDS) * len(r.t) for r in reps)
     resid = resid_at[float(grid[int(np.argmin(np.abs(grid - p_best)))])]
-    s2 = float(curve.min()) / max(n - 1, 1) * _tau_int(resid)
+    # the residual variance from the best grid run (the spline may dip below zero near a perfect fit)
+    s2 = float(table.sum(axis=1).min()) / max(n - 1, 1) * _tau_int(resid)
     inside = fine[curve - curve.min() <= 3.84 * s2]
     folds = {}
     if len(reps) > 1:
