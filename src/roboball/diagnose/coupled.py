@@ -32,6 +32,9 @@ COORDS = ("pipe_angle_rad", "steer_angle_rad")
 PRESSURE_GRID_KPA = tuple(np.round(np.linspace(6.9, 34.5, 9), 2))
 REGRESSION_SPAN_KPA = (6.9, 20.7)
 AUTHORS_TAU_S = 3.0
+# The logs start a few samples after the let-go, already moving (pipe 0.18-0.37 rad/s): each
+# run starts at the first sample with the rates of a quadratic fitted to the first 0.1 s.
+RELEASE_RATE_S = 0.1
 
 
 @dataclass
@@ -45,6 +48,16 @@ class Repeat:
 
     def coord(self, c: str) -> np.ndarray:
         return self.pipe if c == "pipe_angle_rad" else self.steer
+
+    def release_rates(self) -> dict:
+        """Both rates (rad/s) at the first sample: the slope of a quadratic fitted to the first
+        RELEASE_RATE_S (at least three samples; fewer: at rest)."""
+        m = self.t <= self.t[0] + RELEASE_RATE_S
+        if m.sum() < 3:
+            return {"pipe_rate": 0.0, "steer_rate": 0.0}
+        tau = self.t[m] - self.t[0]
+        return {"pipe_rate": float(np.polyfit(tau, self.pipe[m], 2)[1]),
+                "steer_rate": float(np.polyfit(tau, self.steer[m], 2)[1])}
 
 
 def read_repeats(paths) -> list[Repeat]:
@@ -63,8 +76,9 @@ def read_repeats(paths) -> list[Repeat]:
 
 
 def run(spec, rep: Repeat, built=None) -> dict:
-    """The model `spec` released at rest from the repeat's first sample, at its sample times."""
-    return predict(spec, rep.t, float(rep.pipe[0]), float(rep.steer[0]), built=built)
+    """The model `spec` released from the repeat's first sample with its release rates, at its
+    sample times."""
+    return predict(spec, rep.t, float(rep.pipe[0]), float(rep.steer[0]), built=built, rates0=rep.release_rates())
 
 
 def rms(pred: dict, rep: Repeat) -> dict:

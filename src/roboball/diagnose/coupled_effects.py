@@ -2,8 +2,8 @@
 
 Baseline (diagnosis.md, steer_coupled): the calibrated model, i.e. the stand-fitted steer
 friction (with its reflected rotor inertia) and the injected shell (eq. 6-9) at the pressure
-fitted on the training data (roboball.diagnose.coupled.fit_pressure), released at rest from the
-first sample.  The effect vocabulary (roboball.physics.effects) applies per degree of freedom:
+fitted on the training data (roboball.diagnose.coupled.fit_pressure), released from the first
+sample with the rates estimated there (roboball.diagnose.coupled.Repeat.release_rates).  The effect vocabulary (roboball.physics.effects) applies per degree of freedom:
 `CANDIDATES` are (dof, effect) pairs, a torque on the floating base's roll (the pipe angle) or on
 the steer joint, or for `added_inertia` the steer joint's rotor.
 

@@ -125,7 +125,7 @@ def diagnose_coupled(paths, out_dir, regression, friction_steer, log=None) -> di
                                    "heldout_before": _pooled(heldout, "rmse_heldout_before"),
                                    "heldout_after": _pooled(heldout, "rmse_heldout_after")}},
         "heldout_folds": [{k: v for k, v in f.items() if k != "spec"} for f in heldout],
-        "notes": ["release states are the first samples at rest (the logs start at the let-go); they are not fitted"],
+        "notes": ["release states: the first sample, with rates from a quadratic fitted to the first 0.1 s of each log (estimated from the data, not fitted by simulation)"],
     }
     out = output_folder(out_dir)
     write_json_atomic(out / "diagnosis.json", js)

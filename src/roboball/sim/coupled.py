@@ -35,7 +35,7 @@ AUTHORS_NM = (1.55201e5, 0.405)
 AUTHORS_HAND = (1.2e5, 0.75)
 TUNED_DISSIPATION_SCALE = 0.5      # the paper's tuned hydroelastic model (section III-D)
 # 2 ms: every model's trajectory within 1.5 mrad of its 1 ms run over 5 s (docs/coupled.md;
-# tests/sim/test_coupled.py), at half the cost.
+# tests/sim/test_coupled_scenario.py), at half the cost.
 DT_S = 2e-3
 
 
@@ -104,12 +104,13 @@ def model_spec(name: str, p_kpa: float | None, laws: ShellLaws, friction: dict, 
     return spec
 
 
-def predict(spec: SimSpec, t: np.ndarray, pipe0: float, steer0: float, built=None) -> dict:
-    """Both coordinates at the times `t` (s, from the let-go at t[0]) of a run released at rest
-    from (pipe0, steer0): {"pipe_angle_rad": ..., "steer_angle_rad": ...}."""
+def predict(spec: SimSpec, t: np.ndarray, pipe0: float, steer0: float, built=None, rates0: dict | None = None) -> dict:
+    """Both coordinates at the times `t` (s, from the let-go at t[0]) of a run released from
+    (pipe0, steer0), at rest or with `rates0` ({"pipe_rate", "steer_rate"}, rad/s):
+    {"pipe_angle_rad": ..., "steer_angle_rad": ...}."""
     t = np.asarray(t, dtype=float)
     duration = float(t[-1] - t[0]) + 2 * spec.dt
     rate = 1.0 / (5 * spec.dt)           # the log at 100 Hz (dt 2 ms), interpolated to t
-    df = simulate(spec, pipe0, duration, sample_rate_hz=rate, steer0=steer0, built=built)
+    df = simulate(spec, pipe0, duration, sample_rate_hz=rate, steer0=steer0, built=built, rates0=rates0)
     ts = df["time_s"].to_numpy() + t[0]
     return {c: np.interp(t, ts, df[c].to_numpy()) for c in ("pipe_angle_rad", "steer_angle_rad")}

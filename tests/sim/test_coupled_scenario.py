@@ -60,3 +60,26 @@ def test_the_2_ms_step_matches_1_ms_within_1_5_mrad(name):
     a = predict(model_spec(name, 23.5, LAWS, FRICTION, dt=1e-3), t, -0.37, 0.39)
     b = predict(model_spec(name, 23.5, LAWS, FRICTION, dt=DT_S), t, -0.37, 0.39)
     assert max(np.max(np.abs(a[c] - b[c])) for c in a) < 1.5e-3
+
+
+def test_a_log_that_starts_after_the_let_go_starts_the_run_moving_and_rolling_without_slip():
+    from pydrake.systems.analysis import Simulator
+    from roboball.sim.scenarios import set_release, set_release_rates
+
+    built = build(model_spec("injected", 20.0, LAWS, FRICTION))
+    sim = Simulator(built.diagram)
+    ctx = sim.get_mutable_context()
+    set_release(built, ctx, -0.36, 0.38)
+    set_release_rates(built, ctx, pipe_rate=0.3, steer_rate=-0.02)
+    plant, pctx = built.plant, built.plant.GetMyContextFromRoot(ctx)
+    body = plant.GetBodyByName("pitch_center")
+    V = plant.EvalBodySpatialVelocityInWorld(pctx, body)
+    height = plant.GetFreeBodyPose(pctx, body).translation()[2]
+    assert V.rotational()[0] == pytest.approx(0.3) and V.translational()[1] == pytest.approx(-0.3 * height)
+    assert plant.GetJointByName("steer").get_angular_rate(pctx) == pytest.approx(-0.02)
+    t = np.linspace(0.0, 0.04, 21)
+    moving = predict(model_spec("injected", 20.0, LAWS, FRICTION), t, -0.36, 0.38,
+                     rates0={"pipe_rate": 0.3, "steer_rate": 0.0})
+    at_rest = predict(model_spec("injected", 20.0, LAWS, FRICTION), t, -0.36, 0.38)
+    slope = np.polyfit(t, moving["pipe_angle_rad"] - at_rest["pipe_angle_rad"], 1)[0]
+    assert slope == pytest.approx(0.3, rel=0.15)
