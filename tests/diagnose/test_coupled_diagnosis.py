@@ -12,7 +12,7 @@ from conftest import COUPLED, REPO, real_file
 from roboball.cli.main import main as cli_main
 from roboball.diagnose.coupled import (AUTHORS_TAU_S, Repeat, authors_average, authors_loss, fit_authors_objective,
                                        fit_pressure, read_repeats, run)
-from roboball.diagnose.coupled_effects import effect_spec, folds_of, screen
+from roboball.diagnose.coupled_effects import effect_spec, fit_chosen, folds_of, screen
 from roboball.sim.coupled import AUTHORS_NM, model_spec
 from roboball.sim.schedule import ShellLaws
 
@@ -71,6 +71,16 @@ def test_a_centre_of_mass_shift_of_the_shell_is_found_on_the_pipe_coordinate():
     chosen, table = screen(base, reps, masks)
     assert ("pipe", "com_offset") in chosen
     assert table["pipe.com_offset"]["step"][0] == pytest.approx(0.06, rel=0.3)
+
+
+def test_an_effect_the_data_cannot_tell_from_zero_is_dropped_and_the_rest_refitted():
+    base = model_spec("injected", 20.0, LAWS, FRICTION)
+    truth = effect_spec(base, {("pipe", "com_offset"): 0.06})
+    reps = [_synthetic(truth, "r1", duration=3.0), _synthetic(truth, "r2", duration=3.0, pipe0=-0.3, steer0=0.33)]
+    masks = {r.name: np.ones(len(r.t), bool) for r in reps}
+    kept, fit, dropped = fit_chosen(base, [("pipe", "com_offset"), ("steer", "viscous_damping")], reps, masks)
+    assert kept == [("pipe", "com_offset")] and dropped == [("steer", "viscous_damping")]
+    assert fit.values[("pipe", "com_offset")] == pytest.approx(0.06, abs=0.01)
 
 
 def test_one_recording_is_held_out_by_its_last_third():

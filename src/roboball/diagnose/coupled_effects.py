@@ -16,7 +16,8 @@ Selection is a linearised screen, then a Drake refit:
    leave-one-out error of the linearised model; the set with the lowest inner error among those
    that lower BIC is chosen (by BIC alone with one training recording);
 3. the chosen parameters are refitted with Drake (scipy least_squares, a small budget) and
-   their 95 % intervals read from the Jacobian at the optimum.
+   their 95 % intervals read from the Jacobian at the optimum; an effect whose interval includes
+   zero is dropped and the rest refitted (`fit_chosen`).
 Held-out: each fold trains on all repeats but one and predicts the one left out; a single
 recording is split in time instead (trained on its first `TRAIN_SHARE`, scored on the rest).
 """
@@ -243,6 +244,18 @@ def refit(base, chosen: list, reps, masks, start: dict | None = None, max_nfev: 
     return out
 
 
+def fit_chosen(base, chosen: list, reps, masks) -> tuple[list, Refit, list]:
+    """Refit the screen's choice, then drop every effect whose 95 % interval includes zero (the
+    diagnosis's keep rule: the data must tell the effect from its absence) and refit the rest
+    once.  Returns (kept, their fit, dropped)."""
+    fit = refit(base, chosen, reps, masks)
+    dropped = [c for c in chosen if fit.ci95[c][0] <= 0.0 <= fit.ci95[c][1]]
+    if dropped:
+        chosen = [c for c in chosen if c not in dropped]
+        fit = refit(base, chosen, reps, masks, start=fit.values)
+    return chosen, fit, dropped
+
+
 def baseline_spec(p_kpa: float, laws, friction: dict):
     return model_spec("injected", p_kpa, laws, friction)
 
@@ -259,12 +272,14 @@ def held_out(reps, laws, friction, pressure=None, log=None) -> list[dict]:
         p = pressure.folds.get(fold.name, pressure.p_kpa)
         base = baseline_spec(p, laws, friction)
         chosen, _ = screen(base, reps, fold.train, log=log)
-        fit = refit(base, chosen, reps, fold.train)
+        chosen, fit, dropped = fit_chosen(base, chosen, reps, fold.train)
         test_names = set(fold.test)
         before = rms_by_coord(predict_all(base, reps, test_names), reps, fold.test)
         after = rms_by_coord(predict_all(effect_spec(base, fit.values), reps, test_names), reps, fold.test)
         out.append({"fold": fold.name, "pressure_kpa": p, "effects": [key(*c) for c in chosen],
                     "values": {key(*c): v for c, v in fit.values.items()},
+                    "ci95": {key(*c): list(v) for c, v in fit.ci95.items()},
+                    "dropped": [key(*c) for c in dropped],
                     "rmse_heldout_before": before, "rmse_heldout_after": after, "spec": effect_spec(base, fit.values)})
         if log:
             log(f"fold {fold.name}: {'+'.join(out[-1]['effects']) or 'nothing'}; held out {before} -> {after}")

@@ -20,8 +20,8 @@ from roboball.atomic import output_folder, write_csv_atomic, write_json_atomic, 
 from roboball.errors import RoboballError
 from roboball.physics import effects as fx
 from roboball.diagnose.coupled import COORDS, fit_pressure, read_repeats
-from roboball.diagnose.coupled_effects import (baseline_spec, effect_spec, folds_of, held_out, key, predict_all,
-                                               refit, residual, rms_by_coord, screen, truncated)
+from roboball.diagnose.coupled_effects import (baseline_spec, effect_spec, fit_chosen, folds_of, held_out, key,
+                                               predict_all, rms_by_coord, screen, truncated)
 
 # Where the baseline's residual is located: thirds of each recording's span.
 REGIMES = ("large_amplitude", "small_amplitude", "late_decay")
@@ -97,7 +97,7 @@ def diagnose_coupled(paths, out_dir, regression, friction_steer, log=None) -> di
     pressure = fit_pressure([truncated(r, train[r.name]) for r in reps], laws, friction)
     base = baseline_spec(pressure.p_kpa, laws, friction)
     chosen, table = screen(base, reps, train, log=log)
-    fit = refit(base, chosen, reps, train)
+    chosen, fit, dropped = fit_chosen(base, chosen, reps, train)
     final = effect_spec(base, fit.values)
     pred_base, pred_aug = predict_all(base, reps), predict_all(final, reps)
     if len(reps) > 1:
@@ -105,7 +105,7 @@ def diagnose_coupled(paths, out_dir, regression, friction_steer, log=None) -> di
     else:   # one recording: its one fold is the fit above (trained on the first two thirds)
         test = folds[0].test
         heldout = [{"fold": folds[0].name, "pressure_kpa": pressure.p_kpa, "effects": [key(*c) for c in chosen],
-                    "values": {key(*c): v for c, v in fit.values.items()},
+                    "values": {key(*c): v for c, v in fit.values.items()}, "dropped": [key(*c) for c in dropped],
                     "rmse_heldout_before": rms_by_coord(pred_base, reps, test),
                     "rmse_heldout_after": rms_by_coord(pred_aug, reps, test)}]
     js = {
@@ -125,6 +125,7 @@ def diagnose_coupled(paths, out_dir, regression, friction_steer, log=None) -> di
                                    "heldout_before": _pooled(heldout, "rmse_heldout_before"),
                                    "heldout_after": _pooled(heldout, "rmse_heldout_after")}},
         "heldout_folds": [{k: v for k, v in f.items() if k != "spec"} for f in heldout],
+        "dropped": [key(*c) for c in dropped],
         "notes": ["release states: the first sample, with rates from a quadratic fitted to the first 0.1 s of each log (estimated from the data, not fitted by simulation)"],
     }
     out = output_folder(out_dir)
@@ -188,6 +189,8 @@ def report_md(js: dict) -> str:
         lo, hi = m["ci95"][p]
         lines.append(f"- `{m['effect']}` on the {m['dof']} coordinate: {p} = {v:.4g} {m['units'][p]} "
                      f"(95 % {lo:.4g} to {hi:.4g}); {m['explains']}; physically: {m['mechanism']}.")
+    if js["dropped"]:
+        lines.append("- screened but dropped, their 95 % interval includes zero: " + ", ".join(js["dropped"]))
     lines += ["", "## Held out", ""] + [f"- {h['fold']}: {'+'.join(h['effects']) or 'nothing'}; "
                                         + ", ".join(f"{c} {h['rmse_heldout_before'][c]:.4f} -> {h['rmse_heldout_after'][c]:.4f} rad"
                                                     for c in COORDS) for h in js["heldout_folds"]]
