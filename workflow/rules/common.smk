@@ -100,6 +100,8 @@ PF = "paper_figures"
 # Numbered: the report sorts its labels as text.
 TABLE_NAMES = {"table1_friction": "1. Table I: joint friction", "table2_robot": "2. Table II: the robot's numbers",
                "table_pme": "3. PME (eq. 12) by contact model and pressure", "table_sweep": "4. Hydroelastic sweep"}
+if COUPLED_LOGS:
+    TABLE_NAMES["table_coupled_rms"] = "5. Coupled steer test (Fig. S2): RMS by model"
 
 
 ##### file names #####
