@@ -91,9 +91,10 @@ RAMP_GROUPS = CAMPAIGN.ramp_groups()
 DEFLATE = config.get("deflating_ramp", {})
 DEFLATE_SCHEDULE = DEFLATE.get("schedule", {})
 
-# Beyond the paper (issue 27, Fig. S2): the coupled steer test's real repeats, when present.
+# Beyond the paper (issue 27, Fig. S2): the coupled steer test's real repeats, when present (and
+# the real steer stand's Majd fit, their steer friction, is among the fits).
 COUPLED_LOGS = ([os.path.join(config["real_data"]["path"], f) for f in config["real_data"].get("steer_coupled", [])]
-                if REAL_ON else [])
+                if REAL_ON and "majd" in config["friction"]["steer_laws"] else [])
 
 PF = "paper_figures"
 # The paper tables the Snakemake report shows (rule table_page), by file stem.
