@@ -1,6 +1,6 @@
 """Trimmed logs in the diagnosis (diagnosis.md: a recording that starts at, or just after, the
 let-go is diagnosed from its first sample, not refused), and the steer_coupled kind in the stages
-that cannot handle it yet (one line naming the file, never a traceback)."""
+that do not handle it (one line naming the file, never a traceback)."""
 import json
 from pathlib import Path
 
@@ -76,30 +76,26 @@ def test_a_synthetic_trimmed_log_has_one_window_from_its_first_sample(samples_af
 
 
 # --------------------------------------------------------------------------------------------
-# steer_coupled: recorded, not yet diagnosed, simulated or run by the workflow
+# steer_coupled: diagnosed and simulated in Drake (issue 27), not by the reduced models nor the
+# campaign manifest (the real repeats come from the config's real_data)
 # --------------------------------------------------------------------------------------------
-def test_diagnosing_a_steer_coupled_log_is_a_one_line_error(capsys, tmp_path):
-    path = real_file(COUPLED[1])
-    code, _, err = _cli(["diagnose", str(path), "--out", str(tmp_path / "d")], capsys)
-    assert code != 0 and len(err.splitlines()) == 1, err
-    assert f"{path}: kind steer_coupled is not supported in the diagnosis yet" in err
-    assert "Traceback" not in err
-
-
-def test_a_steer_coupled_recording_is_refused_by_the_diagnosis_by_name():
+def test_a_steer_coupled_recording_is_refused_by_the_reduced_model_diagnosis_by_name():
     from roboball.errors import RoboballError
     rec = Recording(pd.DataFrame({"time_s": [0.0, 0.02], "pipe_angle_rad": [-0.3, -0.29],
                                   "steer_angle_rad": [0.3, 0.3]}),
                     {"kind": "steer_coupled", "pressure_kpa": None}, Path("runs/coupled.csv"))
     with pytest.raises(RoboballError, match=r"^runs/coupled.csv: kind steer_coupled is not supported in the "
-                                            r"diagnosis yet$"):
+                                            r"reduced-model diagnosis yet \(roboball.diagnose.diagnose runs it in Drake\)$"):
         prepare(rec)
 
 
-def test_simulation_scenarios_refuse_steer_coupled_in_one_line():
-    from roboball.sim.plant import SimSpec, build
-    with pytest.raises(ValueError, match=r"^kind steer_coupled is not supported in the simulation scenarios yet$"):
-        build(SimSpec(kind="steer_coupled"))
+def test_diagnosing_a_steer_coupled_log_without_its_friction_fit_is_a_one_line_error(capsys, tmp_path):
+    path = real_file(COUPLED[1])
+    missing = tmp_path / "no_fit.json"
+    code, _, err = _cli(["diagnose", str(path), "--out", str(tmp_path / "d"), "--friction-steer", str(missing)], capsys)
+    assert code != 0 and len(err.splitlines()) == 1, err
+    assert f"{missing}: steer friction fit (pipeline rule friction_fit, real steer stand) not found" in err
+    assert "Traceback" not in err
 
 
 def test_the_workflow_manifest_refuses_steer_coupled_in_one_line(tmp_path):
@@ -117,6 +113,6 @@ def test_the_workflow_manifest_refuses_steer_coupled_in_one_line(tmp_path):
 
 def test_steer_coupled_is_a_recorded_kind_with_two_signals():
     from roboball.kinds import MAIN_SIGNAL, PRESSURE_REQUIRED, RECORDED, SECOND_SIGNAL, SIMULATED
-    assert "steer_coupled" in RECORDED and "steer_coupled" not in SIMULATED
+    assert "steer_coupled" in RECORDED and "steer_coupled" in SIMULATED
     assert (MAIN_SIGNAL["steer_coupled"], SECOND_SIGNAL["steer_coupled"]) == ("pipe_angle_rad", "steer_angle_rad")
     assert "steer_coupled" not in PRESSURE_REQUIRED

@@ -91,11 +91,18 @@ RAMP_GROUPS = CAMPAIGN.ramp_groups()
 DEFLATE = config.get("deflating_ramp", {})
 DEFLATE_SCHEDULE = DEFLATE.get("schedule", {})
 
+# Beyond the paper (issue 27, Fig. S2): the coupled steer test's real repeats, when present (and
+# the real steer stand's Majd fit, their steer friction, is among the fits).
+COUPLED_LOGS = ([os.path.join(config["real_data"]["path"], f) for f in config["real_data"].get("steer_coupled", [])]
+                if REAL_ON and "majd" in config["friction"]["steer_laws"] else [])
+
 PF = "paper_figures"
 # The paper tables the Snakemake report shows (rule table_page), by file stem.
 # Numbered: the report sorts its labels as text.
 TABLE_NAMES = {"table1_friction": "1. Table I: joint friction", "table2_robot": "2. Table II: the robot's numbers",
                "table_pme": "3. PME (eq. 12) by contact model and pressure", "table_sweep": "4. Hydroelastic sweep"}
+if COUPLED_LOGS:
+    TABLE_NAMES["table_coupled_rms"] = "5. Coupled steer test (Fig. S2): RMS by model"
 
 
 ##### file names #####
@@ -130,7 +137,8 @@ def report_figures():
 
 def final_targets():
     """The workflow's final targets (the Snakefile's `all`): the paper's figures and tables, the
-    replays, the friction figures, the uncertainty report and Fig. S1."""
+    replays, the friction figures, the uncertainty report, Fig. S1 and, with the real coupled
+    repeats, Fig. S2 and its table."""
     targets = [
         f"{PF}/fig10_shell_dynamics.png", f"{PF}/fig11_hydro_sensitivity.png",
         f"{PF}/fig13_ramp_pme.png", f"{PF}/fig14_ramp_pme_mean.png",
@@ -143,6 +151,8 @@ def final_targets():
     if REAL_ON:
         targets += [f"{PF}/fig7_real_steer_fits.png"]
     targets += [f"{PF}/uncertainty_report.html", f"{PF}/figS1_deflating_ramp.png"]
+    if COUPLED_LOGS:
+        targets += [f"{PF}/figS2_steer_coupled.png", f"{PF}/table_coupled_rms.csv", f"{PF}/table_coupled_rms.md"]
     targets += [f"results/report/{t}.html" for t in TABLE_NAMES]
     return targets
 

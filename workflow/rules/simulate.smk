@@ -2,7 +2,8 @@
 # with the hydroelastic sensitivity sweep (section III-D, Fig. 11); ramp descents of every contact
 # model for every recorded run, scored by PME (eq. 12), with the friction posteriors propagated
 # through the simulations; the interactive replays; and, beyond the paper (issue 9, Fig. S1), a
-# ramp descent while the shell deflates (roboball.sim.schedule_run; config section deflating_ramp).
+# ramp descent while the shell deflates (roboball.sim.schedule_run; config section deflating_ramp);
+# and (issue 27, Fig. S2) the coupled steer test of the real repeats against every shell model.
 
 
 rule shell_sim:
@@ -167,3 +168,35 @@ rule figS1_deflating_ramp:
         "--contacts {params.contacts} --geometry {params.geometry} --hydro-update-s {params.hydro_update} "
         "--dissipation-scale {params.d} --modulus-scale {params.m} --dt {params.dt} "
         "--out-png {output.png} --out-csv {output.csv} > {log} 2>&1"
+
+
+rule figS2_steer_coupled:
+    # Beyond the paper (issue 27): the coupled steer test's three real repeats against every
+    # shell model, our fit of the authors' objective and the held-out diagnosed model
+    # (roboball.pipeline.coupled).  The steer friction is the real stand's Majd fit.
+    input:
+        recordings=COUPLED_LOGS,
+        regression="results/identify/shell_regression.csv",
+        friction=fit_json("real", "steer", "majd"),
+    output:
+        png=report(f"{PF}/figS2_steer_coupled.png", category="6 Beyond the paper", caption="../report/figS2.rst",
+                   labels={"figure": "Fig. S2: coupled steer test"}),
+        pdf=f"{PF}/figS2_steer_coupled.pdf",
+        table_csv=f"{PF}/table_coupled_rms.csv",
+        table_md=f"{PF}/table_coupled_rms.md",
+        traces="results/coupled/traces.csv",
+        summary="results/coupled/coupled.json",
+    params:
+        code=CODE["steer-coupled"],
+        nm_evals=config.get("steer_coupled", {}).get("nm_evals", 30),
+    resources:
+        mem_mb=1500,
+        runtime=15,
+        cpus_per_task=1,
+    log: "results/logs/figS2_steer_coupled.log"
+    benchmark: "results/benchmarks/figS2_steer_coupled.tsv"
+    shell:
+        "{ROBOBALL} steer-coupled --recordings {input.recordings} --regression {input.regression} "
+        "--friction-steer {input.friction} --nm-evals {params.nm_evals} --out-json {output.summary} "
+        "--out-csv {output.traces} --out-png {output.png} --table-csv {output.table_csv} "
+        "--table-md {output.table_md} > {log} 2>&1"

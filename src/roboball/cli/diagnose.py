@@ -21,6 +21,9 @@ from roboball.errors import RoboballError
 from roboball.kinds import RECORDED
 
 KINDS = RECORDED
+# The steer_coupled baseline's calibrated parts: the pipeline's outputs by default.
+COUPLED_REGRESSION = "results/identify/shell_regression.csv"
+COUPLED_FRICTION = "results/friction/real/steer_majd.json"
 
 
 def _kind(text: str) -> str:
@@ -87,6 +90,38 @@ class Progress:
         self._thread.join()
 
 
+def _is_coupled(args) -> bool:
+    """Whether the recordings are of the coupled steer test (by --kind, else by the first file)."""
+    if args.kind is not None:
+        return args.kind == "steer_coupled"
+    from roboball.ingest.importers import read_any
+    return read_any(args.recording[0]).kind == "steer_coupled"
+
+
+def cmd_diagnose_coupled(args) -> int:
+    """The coupled steer test: diagnosed in Drake (roboball.diagnose.coupled_report)."""
+    from roboball.diagnose.coupled_report import check_inputs, diagnose_coupled
+
+    t0 = time.perf_counter()
+    friction = args.friction_steer or COUPLED_FRICTION
+    check_inputs(args.regression, friction)
+    label = " + ".join(args.recording)
+    progress = Progress(label, verbose=True)
+    progress.stage = "Drake runs of the coupled model (pressure, screen, refit, held-out folds)"
+    try:
+        js = diagnose_coupled(args.recording, args.out, args.regression, friction, log=progress)
+    except ValueError as exc:
+        raise RoboballError(f"{label}: {exc}")
+    finally:
+        progress.close()
+    found = ", ".join(f"{m['effect']} ({m['dof']})" for m in js["missing_physics"]) or "nothing missing"
+    pc = js["fit"]["per_coordinate"]
+    held = "; ".join(f"{c} {pc['heldout_before'][c]:.4g} -> {pc['heldout_after'][c]:.4g}" for c in pc["before"])
+    print(f"{label}: {js['verdict']} ({found}); held out {held} rad; "
+          f"wrote {Path(args.out) / 'diagnosis.json'} in {time.perf_counter() - t0:.1f} s")
+    return 0
+
+
 def cmd_diagnose(args) -> int:
     from roboball.diagnose import diagnose
     from roboball.diagnose.scored import Settings
@@ -97,6 +132,8 @@ def cmd_diagnose(args) -> int:
         if not Path(path).exists():
             raise RoboballError(f"{path}: file not found")
     output_folder(args.out, create=False)
+    if _is_coupled(args):
+        return cmd_diagnose_coupled(args)
     friction = read_joint_friction(args.friction_steer, args.friction_drive)
     label = " + ".join(args.recording)
     progress = Progress(label, verbose=args.verbose)
@@ -126,7 +163,10 @@ def _register(sub):
     p.add_argument("--pressure-kpa", type=_pressure, default=None, metavar="KPA",
                    help="shell gauge pressure (kPa; default: the sidecar's)")
     p.add_argument("--friction-steer", default=None, metavar="FIT.json",
-                   help="ramp baseline: Majd steer friction from a fit (roboball's fit JSON; default: Table I)")
+                   help="ramp baseline: Majd steer friction from a fit (roboball's fit JSON; default: Table I); "
+                        f"steer_coupled baseline: the stand fit with its delta_i (default: {COUPLED_FRICTION})")
+    p.add_argument("--regression", default=COUPLED_REGRESSION, metavar="CSV",
+                   help=f"steer_coupled baseline: the shell regression zeta(p), omega_n(p) (default: {COUPLED_REGRESSION})")
     p.add_argument("--friction-drive", default=None, metavar="FIT.json",
                    help="ramp baseline: Majd drive friction from a fit (default: Table I)")
     p.add_argument("--no-drake", action="store_true",

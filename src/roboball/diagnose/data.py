@@ -338,8 +338,9 @@ def smooth_after(t: np.ndarray, y: np.ndarray, t0: float, half_width: float) -> 
 def prepare(rec: Recording) -> Prepared:
     """Fit windows of every release in `rec` (normalised first).  A kind the diagnosis has no
     baseline for yet (roboball.kinds.NOT_YET) is a one-line RoboballError naming the file."""
-    if rec.kind in NOT_YET["diagnosis"]:
-        raise RoboballError(f"{rec.label}: {not_yet_message(rec.kind, 'diagnosis')}")
+    if rec.kind in NOT_YET["reduced-model diagnosis"]:
+        raise RoboballError(f"{rec.label}: {not_yet_message(rec.kind, 'reduced-model diagnosis')} "
+                            "(roboball.diagnose.diagnose runs it in Drake)")
     rec = normalise(rec)
     kind = rec.kind
     signal = rec.main_signal()

@@ -93,6 +93,9 @@ _LAYOUT = {
     "shell_rock": dict(fixed=("steer", "drive"), root="pitch_center", welded=False),
     "ramp": dict(fixed=(), root="pitch_center", welded=False),
     "free": dict(fixed=(), root="pitch_center", welded=False),
+    # the coupled steer test: on the floor, pendulum free on its steer joint; the drive motor
+    # holds the pipe to the pitch centre (the shell rocks sideways, it does not roll forward)
+    "steer_coupled": dict(fixed=("drive",), root="pitch_center", welded=False),
 }
 
 

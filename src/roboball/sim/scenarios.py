@@ -61,6 +61,20 @@ def set_release(built: Built, context, release: float, steer0: float = 0.0) -> N
         settle_on_ground(built, context)
 
 
+def set_release_rates(built: Built, context, pipe_rate: float = 0.0, steer_rate: float = 0.0) -> None:
+    """Give a robot on flat ground, already at its release pose, a roll rate `pipe_rate` (rad/s,
+    about world x, rolling without slip: its centre moves at -pipe_rate R along world y) and a
+    steer joint rate `steer_rate` (rad/s): a log that starts a few samples after the let-go."""
+    plant = built.plant
+    pctx = plant.GetMyMutableContextFromRoot(context)
+    body = plant.GetBodyByName("pitch_center")
+    from pydrake.multibody.math import SpatialVelocity
+    height = float(plant.GetFreeBodyPose(pctx, body).translation() @ built.ground_normal)
+    plant.SetFreeBodySpatialVelocity(pctx, body, SpatialVelocity([pipe_rate, 0.0, 0.0], [0.0, -pipe_rate * height, 0.0]))
+    if steer_rate:
+        plant.GetJointByName("steer").set_angular_rate(pctx, steer_rate)
+
+
 def _shift_along_normal(built: Built, context, sink: float) -> None:
     plant = built.plant
     pctx = plant.GetMyMutableContextFromRoot(context)
@@ -180,7 +194,8 @@ def _max_wall_s(max_wall_s: float | None) -> float | None:
 
 def simulate(spec: SimSpec, release: float, duration: float, sample_rate_hz: float = 100.0,
              steer0: float = 0.0, chunk_s: float = 0.5, built: Built | None = None,
-             return_states: bool = False, max_wall_s: float | None = None, before_chunk=None):
+             return_states: bool = False, max_wall_s: float | None = None, before_chunk=None,
+             rates0: dict | None = None):
     """Run `spec` from rest at `release` for `duration` s; return a recording DataFrame.
 
     The state is checked between chunks of `chunk_s` for NaN, blow-up and deep penetration; a
@@ -190,6 +205,8 @@ def simulate(spec: SimSpec, release: float, duration: float, sample_rate_hz: flo
     between chunks.  With `return_states` the logged plant states (n_x by N) come back too:
     (df, states).  `before_chunk(built, context, t0, t1)`, when given, runs before each chunk
     is simulated (e.g. to replace contact properties between segments: roboball.sim.schedule_run).
+    `rates0` ({"pipe_rate": ..., "steer_rate": ...}, rad/s) starts a robot on the ground moving
+    (`set_release_rates`) instead of at rest.
     """
     budget = _max_wall_s(max_wall_s)
     if built is None:
@@ -197,6 +214,8 @@ def simulate(spec: SimSpec, release: float, duration: float, sample_rate_hz: flo
     sim = Simulator(built.diagram)
     ctx = sim.get_mutable_context()
     set_release(built, ctx, release, steer0)
+    if rates0:
+        set_release_rates(built, ctx, **rates0)
     sim.Initialize()
     pctx = built.plant.GetMyContextFromRoot(ctx)
     t = 0.0

@@ -36,3 +36,18 @@ def read_friction(path) -> dict:
 def read_joint_friction(steer=None, drive=None) -> dict:
     """{joint: Majd parameters} for the joints whose fit file is given (empty or None: left out)."""
     return {joint: read_friction(path) for joint, path in (("steer", steer), ("drive", drive)) if path}
+
+
+def read_stand_friction(path) -> dict:
+    """The steer stand's calibrated fit as a Drake scenario runs it: the Majd parameters
+    (`read_friction`) and, when the fit has one, its reflected rotor inertia `delta_i` (kg m^2;
+    the calibrated stand's added inertia, which belongs to the joint wherever the joint moves)."""
+    out = read_friction(path)
+    d = read_json(Path(path))
+    if is_fit(d) and isinstance(d["parameters"], dict):
+        delta = point_estimate(d).get("delta_i")
+        if delta is not None:
+            if isinstance(delta, bool) or not isinstance(delta, (int, float)) or delta != delta:
+                raise RoboballError(f"{path}: parameter 'delta_i' is {delta!r}, not a number")
+            out["delta_i"] = float(delta)
+    return out

@@ -1,0 +1,49 @@
+"""Fig. S2: the coupled steer test, each repeat's pipe angle and steer joint angle, recording
+against every shell model (issue 27; roboball.pipeline.coupled draws it)."""
+from __future__ import annotations
+
+import pandas as pd
+
+# colour, line style per model; the recording is drawn as dots
+STYLE = {
+    "point": ("#7f7f7f", ":"), "injected": ("#1f77b4", "-"), "hydroelastic": ("#d62728", "-"),
+    "hydro_tuned": ("#ff7f0e", "--"), "authors_nm": ("#9467bd", "-."), "authors_hand": ("#8c564b", ":"),
+    "ours_nm": ("#e377c2", "--"), "diagnosed": ("#2ca02c", "-"),
+}
+LABELS = {"ours_nm": "ours: authors' objective refitted", "diagnosed": "diagnosed (held out)"}
+COORDS = (("pipe_angle_rad", "pipe angle phi (rad)"), ("steer_angle_rad", "steer joint angle theta (rad)"))
+
+
+def _label(name: str) -> str:
+    from roboball.sim.coupled import MODEL_NAMES, model
+    return model(name).label if name in MODEL_NAMES else LABELS.get(name, name)
+
+
+def plot(traces: pd.DataFrame, table: pd.DataFrame, out_png: str) -> None:
+    """Two rows (pipe angle, steer angle) by one column per repeat; PNG + PDF."""
+    from roboball.figures.style import plt, save
+
+    repeats = list(dict.fromkeys(traces.repeat))
+    models = [m for m in dict.fromkeys(traces.model) if m != "recording"]
+    fig, axes = plt.subplots(2, len(repeats), figsize=(4.6 * len(repeats), 6.6), sharex="col", squeeze=False)
+    for j, rep in enumerate(repeats):
+        d = traces[traces.repeat == rep]
+        for i, (col, ylabel) in enumerate(COORDS):
+            ax = axes[i, j]
+            rec = d[d.model == "recording"]
+            ax.plot(rec.time_s, rec[col], "k.", ms=2.5, label="recording", zorder=5)
+            for m in models:
+                dm = d[d.model == m]
+                colour, ls = STYLE.get(m, ("k", "-"))
+                ax.plot(dm.time_s, dm[col], color=colour, ls=ls, lw=2.0 if m == "diagnosed" else 1.2,
+                        label=_label(m))
+            if j == 0:
+                ax.set_ylabel(ylabel)
+            if i == 1:
+                ax.set_xlabel("time since let-go (s)")
+        axes[0, j].set_title(f"repeat {rep.rsplit('_', 1)[-1]}", fontsize=10)
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncol=4, fontsize=8)
+    fig.suptitle("Fig. S2: coupled steer test, three real repeats against every shell model "
+                 "(pressure models at each held-out repeat's fold pressure)", fontsize=10)
+    save(fig, out_png)
