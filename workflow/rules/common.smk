@@ -13,7 +13,8 @@ from roboball.checks import check_config_dir
 from roboball.config import first_nonfinite, load_yaml
 from roboball.errors import RoboballError
 from roboball.pipeline.codedeps import stage_fingerprints
-from roboball.pipeline.plan import REPLAYS, Campaign, friction_models, schedule_args, sweep_cases
+from roboball.pipeline.plan import (REPLAYS, Campaign, friction_models, hydro_fit_settings, hydro_grid_moduli,
+                                    schedule_args, shell_pressure_groups, sweep_cases)
 
 
 ##### configs: checked before any job runs #####
@@ -71,6 +72,12 @@ RAMP = stems("ramp")
 CONTACTS = config["shell"]["contact_models"]
 RAMP_CONTACTS = config["ramp"]["contact_models"]
 SWEEP = sweep_cases(config["shell"]["sweep_factors"])
+# The hydroelastic calibration (issue 25): its grid's columns (job -> modulus), the shell
+# recordings by pressure, and the table the tuned contact model (hydro_tuned) and others read.
+HYDRO = hydro_fit_settings(config["shell"])
+HYDRO_GRID = hydro_grid_moduli(HYDRO)
+SHELL_GROUPS = shell_pressure_groups(REC, SHELL)
+HYDRO_TUNED = "results/identify/hydro_tuned.csv"
 
 # Friction: the stand recording of each (dataset, joint) and every fitted (dataset, joint, law):
 # the test bed's steer and drive stands, and the real steer-stand log when present.
@@ -144,6 +151,7 @@ def final_targets():
         targets += [f"{PF}/fig7_real_steer_fits.png"]
     targets += [f"{PF}/uncertainty_report.html", f"{PF}/figS1_deflating_ramp.png"]
     targets += [f"results/report/{t}.html" for t in TABLE_NAMES]
+    targets += [f"{PF}/figS2_hydro_calibration.png", f"{PF}/table_hydro_tuned.md", HYDRO_TUNED]
     return targets
 
 
@@ -188,9 +196,14 @@ def get_prior_json(wildcards):
     return json.dumps({wildcards.joint: {wildcards.law: joint[wildcards.law], "stand": joint["stand"]}}, sort_keys=True)
 
 
+def get_hydro_fit(wildcards):
+    """The calibration table, for the tuned hydroelastic model only."""
+    return [HYDRO_TUNED] if wildcards.contact == "hydro_tuned" else []
+
+
 def get_ramp_scales(wildcards):
     """(modulus, dissipation) scales of a ramp run: the sweep's carried-forward setting for
-    hydroelastic contact, none for the others."""
+    hydroelastic contact, none for the others (hydro_tuned runs its calibrated values as they are)."""
     if wildcards.contact == "hydroelastic":
         return (config["shell"]["carried_forward"]["modulus_scale"],
                 config["shell"]["carried_forward"]["dissipation_scale"])
