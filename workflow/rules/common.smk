@@ -151,7 +151,7 @@ def final_targets():
         targets += [f"{PF}/fig7_real_steer_fits.png"]
     targets += [f"{PF}/uncertainty_report.html", f"{PF}/figS1_deflating_ramp.png"]
     targets += [f"results/report/{t}.html" for t in TABLE_NAMES]
-    targets += [f"{PF}/figS2_hydro_calibration.png", f"{PF}/table_hydro_tuned.md", HYDRO_TUNED]
+    targets += [f"{PF}/figS2_hydro_calibration.png", f"{PF}/table_hydro_tuned.md", f"{PF}/table_hydro_tuned.csv", HYDRO_TUNED]
     return targets
 
 

@@ -229,8 +229,8 @@ def intervals(sur: Surrogate, target: Target, cal: Calibration, draws: int = 400
     """Intervals of modulus and dissipation: draws of the recorded target through the surrogate's
     inverse (corrected by the bias Drake showed at the fit), as shifts from the inverse of the
     recorded mean, added to the fitted values.  Inverses stay in the box the fit was kept in
-    (the grid, above any modulus at which Drake's shell sank); `at_bound` says when the fit
-    itself sits on an edge of it, where the interval is one-sided."""
+    (the grid, above any modulus at which Drake's shell sank); `at_bound` says when the fit, or
+    the inverse of the recorded mean, sits on an edge of it: there the interval is one-sided."""
     rng = np.random.default_rng(seed)
     box = cal.bounds if cal.bounds is not None else sur.bounds
     theta0 = np.log([cal.best.modulus, cal.best.dissipation])
@@ -243,7 +243,8 @@ def intervals(sur: Surrogate, target: Target, cal: Calibration, draws: int = 400
     th = np.exp(np.clip(theta0 + np.array(out), box[0], box[1]))
     q = (50 * (1 - level), 50 * (1 + level))
     lo, hi = box
-    edge = (np.abs(theta0 - lo) < 1e-3) | (np.abs(theta0 - hi) < 1e-3)
+    # the fit, or the inverse of the recorded mean (a target no shell in the box reaches), on an edge
+    edge = np.array([(np.abs(t - lo) < 1e-3) | (np.abs(t - hi) < 1e-3) for t in (theta0, centre)])
     return {"modulus_low": float(np.percentile(th[:, 0], q[0])), "modulus_high": float(np.percentile(th[:, 0], q[1])),
             "dissipation_low": float(np.percentile(th[:, 1], q[0])),
             "dissipation_high": float(np.percentile(th[:, 1], q[1])),
@@ -311,3 +312,23 @@ def volume_law(fits: pd.DataFrame, weight_n: float) -> dict:
             "v_ref_ci95_high_m3": v_ref * math.exp(q * lnv_se), "p_ref_pa": p_ref,
             "exponent": k, "exponent_ci95_low": k - q * k_se, "exponent_ci95_high": k + q * k_se,
             "n_pressures": n, "dof": dof}
+
+
+def acceptance_failures(table: pd.DataFrame, limit_percent: float = 10.0) -> list[str]:
+    """Issue 25's acceptance 2 on a calibration table: at every pressure Drake's zeta and omega_n
+    at the fitted values within `limit_percent` of the recorded ones (recomputed from the values,
+    not read from the error columns), and finite 95% intervals that hold the fitted values.
+    Returns what fails, one line each (empty: it holds)."""
+    out = []
+    for r in table.itertuples():
+        for name, sim, rec in (("zeta", r.zeta_drake, r.zeta_recorded),
+                               ("omega_n", r.omega_n_drake_rad_s, r.omega_n_recorded_rad_s)):
+            err = 100 * (sim / rec - 1)
+            if not abs(err) <= limit_percent:
+                out.append(f"{r.pressure_kpa:g} kPa: {name} {sim:.4g} vs recorded {rec:.4g} ({err:+.1f}%)")
+        for name, unit in (("hydro_modulus", "pa"), ("hydro_dissipation", "s_m")):
+            v, lo, hi = (getattr(r, f"{name}_{unit}"), getattr(r, f"{name}_ci95_low_{unit}"),
+                         getattr(r, f"{name}_ci95_high_{unit}"))
+            if not (np.isfinite([v, lo, hi]).all() and 0 < lo <= v * (1 + 1e-9) and v <= hi * (1 + 1e-9)):
+                out.append(f"{r.pressure_kpa:g} kPa: {name} {v:.4g} outside its interval [{lo:.4g}, {hi:.4g}]")
+    return out
