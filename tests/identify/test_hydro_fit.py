@@ -132,3 +132,10 @@ def test_a_run_that_sinks_steps_back_towards_the_last_good_one():
     assert cal.best.error(target) < 0.1
     with pytest.raises(RoboballError, match="sinks"):
         hy.calibrate(sur, target, lambda m, d: (float("nan"), float("nan")))
+
+
+def test_volume_law_at_one_pressure_gives_its_volume_and_no_exponent():
+    fits = pd.DataFrame({"pressure_kpa": [13.8], "hydro_modulus_pa": [1e4], "hydro_modulus_ci95_low_pa": [9e3],
+                         "hydro_modulus_ci95_high_pa": [1.1e4]})
+    law = hy.volume_law(fits, 400.0)
+    assert law["v_ref_m3"] == pytest.approx(0.04) and math.isnan(law["exponent"])

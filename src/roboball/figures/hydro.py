@@ -57,8 +57,9 @@ def _volume_panel(ax, table: pd.DataFrame, law: dict, authors: list, robot) -> N
                 label="calibrated: $f_n$ / hydro_modulus (95%)")
     pp = np.linspace(p.min() - 1, p.max() + 1, 100)
     k = law["exponent"]
-    ax.plot(pp, sl.contact_volume_power(pp * 1e3, law["v_ref_m3"], law["p_ref_pa"], k), color=TUNED,
-            label=f"fitted law V(p) = {law['v_ref_m3']:.3g} (p / {law['p_ref_pa'] / 1e3:.3g} kPa)$^{{{k:.2f}}}$ m$^3$")
+    if np.isfinite(k):                     # a law needs two pressures at least
+        ax.plot(pp, sl.contact_volume_power(pp * 1e3, law["v_ref_m3"], law["p_ref_pa"], k), color=TUNED,
+                label=f"fitted law V(p) = {law['v_ref_m3']:.3g} (p / {law['p_ref_pa'] / 1e3:.3g} kPa)$^{{{k:.2f}}}$ m$^3$")
     ax.plot(pp, [sl.contact_volume(x * 1e3, w, robot.radius) for x in pp], "k--", lw=1.2,
             label="eq. 10's membrane V(p) (paper model)")
     styles = ["-.", ":", (0, (5, 2)), (0, (1, 3))]

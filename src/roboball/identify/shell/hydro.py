@@ -286,10 +286,15 @@ def volume_law(fits: pd.DataFrame, weight_n: float) -> dict:
 
     f = fits.sort_values("pressure_kpa")
     n = len(f)
-    if n < 2:
-        raise RoboballError("contact-volume law: needs calibrated moduli at two pressures at least")
+    if n == 0:
+        raise RoboballError("contact-volume law: no calibrated modulus")
     p = f.pressure_kpa.to_numpy() * 1e3
     lnv = np.log(volume_of_modulus(weight_n, f.hydro_modulus_pa.to_numpy()))
+    if n == 1:                  # one pressure: its volume, no law through it (exponent unknown)
+        nan = float("nan")
+        return {"v_ref_m3": float(np.exp(lnv[0])), "v_ref_ci95_low_m3": nan, "v_ref_ci95_high_m3": nan,
+                "p_ref_pa": float(p[0]), "exponent": nan, "exponent_ci95_low": nan, "exponent_ci95_high": nan,
+                "n_pressures": 1, "dof": -1}
     se = np.log(f.hydro_modulus_ci95_high_pa / f.hydro_modulus_ci95_low_pa).to_numpy() / 3.92
     if {"surrogate_rms_lnomega_n", "dlnomega_n_dlnmodulus"} <= set(f.columns):
         # Drake's own scatter in omega_n (the surrogate's residual: release size, mesh) through the
