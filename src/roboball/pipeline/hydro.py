@@ -50,19 +50,27 @@ def hydro_grid(releases: list, out_csv: str, modulus_pa: float, dissipation_min_
                dissipation_max_s_m: float, n_dissipation: int, duration: float = 9.0, dt: float = 0.001) -> None:
     """One column of the grid: Drake's hydroelastic shell at `modulus_pa`, released from the
     reference release, at `n_dissipation` log-spaced dissipations; zeta and omega_n of each run
-    (nan where the decay cannot be extracted or the shell sinks through the ground)."""
+    (nan where the decay cannot be extracted, the shell sinks through the ground, or a smaller
+    dissipation was already overdamped)."""
     from roboball.errors import SimulationError
     from roboball.pipeline.simulation import drake_decay
+
+    from roboball.identify.shell.hydro import ZETA_MAX
 
     y0 = reference_release(releases)
     guess = _omega_guess()
     rows = []
+    overdamped = False
     for d in np.geomspace(dissipation_min_s_m, dissipation_max_s_m, n_dissipation):
-        try:
-            row = drake_decay(_spec(modulus_pa, float(d), dt), y0, duration, guess)
-        except SimulationError as exc:      # too soft to hold the robot: a hole in the grid, said in the log
-            print(f"hydro-grid: modulus {modulus_pa:.4g} Pa, dissipation {d:.4g} s/m: {exc}")
-            row = {"zeta": float("nan"), "omega_n_rad_s": float("nan")}
+        row = {"zeta": float("nan"), "omega_n_rad_s": float("nan")}
+        if overdamped:       # zeta grows with the dissipation: once overdamped, every larger one is too
+            print(f"hydro-grid: modulus {modulus_pa:.4g} Pa, dissipation {d:.4g} s/m: not run (overdamped below it)")
+        else:
+            try:
+                row = drake_decay(_spec(modulus_pa, float(d), dt), y0, duration, guess)
+            except SimulationError as exc:  # too soft to hold the robot: a hole in the grid, said in the log
+                print(f"hydro-grid: modulus {modulus_pa:.4g} Pa, dissipation {d:.4g} s/m: {exc}")
+            overdamped = bool(row["zeta"] >= ZETA_MAX)
         rows.append({"hydro_modulus_pa": modulus_pa, "hydro_dissipation_s_m": float(d), "release_rad": y0,
                      "zeta": row["zeta"], "omega_n_rad_s": row["omega_n_rad_s"]})
     write_csv_atomic(pd.DataFrame(rows), out_csv)
