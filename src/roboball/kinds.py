@@ -39,6 +39,10 @@ ANGLE_SIGNALS = ("steer_angle_rad", "drive_angle_rad", "pipe_angle_rad")
 # Kinds whose pressure must be known (the shell is in contact with the ground).  A steer_coupled
 # recording's pressure may be unknown (the authors' coupled logs do not give it).
 PRESSURE_REQUIRED = ("shell_rock", "ramp")
+# The pipeline's shell contact models, in the order every figure and table lists them: the
+# paper's three (section III) and the hydroelastic contact calibrated to the shell releases
+# (issue 25, roboball.identify.shell.hydro).  Config shell/ramp.contact_models choose among them.
+CONTACT_MODELS = ("point", "injected", "hydroelastic", "hydro_tuned")
 # Recorded kinds a stage cannot handle yet, by stage.
 # steer_coupled is diagnosed in Drake (roboball.diagnose.coupled_effects), not by the reduced
 # models; the campaign manifest has no coupled runs (the real repeats come from real_data).

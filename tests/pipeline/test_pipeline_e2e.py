@@ -69,11 +69,11 @@ def built(tmp_path_factory):
 def test_every_listed_figure_and_table_is_built(built):
     pf = built / "paper_figures"
     for stem in ["fig5_friction_laws", "fig7_testbed_steer_fits", "fig8_testbed_drive_fits", "fig10_shell_dynamics",
-                 "fig11_hydro_sensitivity", "fig13_ramp_pme", "fig14_ramp_pme_mean"]:
+                 "fig11_hydro_sensitivity", "fig13_ramp_pme", "fig14_ramp_pme_mean", "figS3_hydro_calibration"]:
         assert (pf / f"{stem}.png").stat().st_size > 10_000, stem
         assert (pf / f"{stem}.pdf").stat().st_size > 5_000, stem
     for table in ["table1_friction.md", "table2_robot.md", "table_pme.csv", "table_pme.md", "table_sweep.md",
-                  "uncertainty_report.html"]:
+                  "table_hydro_tuned.md", "table_hydro_tuned.csv", "uncertainty_report.html"]:
         assert (pf / table).stat().st_size > 100, table
     # the diagnosed model is the fourth contact model of Fig. 13/14, on every pressure
     pme = pd.read_csv(pf / "table_pme.csv")

@@ -14,11 +14,11 @@ FRICTION = {"f_w": 0.2, "f_c": 0.45, "sigma": 10.0, "omega_c": 0.1, "n": 1.0}
 
 
 def test_every_shell_model_is_listed_once_with_the_authors_pairs():
-    assert MODEL_NAMES == ("point", "injected", "hydroelastic", "hydro_tuned", "authors_nm", "authors_hand")
+    assert MODEL_NAMES == ("point", "injected", "hydroelastic", "hydro_half", "authors_nm", "authors_hand")
     assert AUTHORS_NM == (1.55201e5, 0.405) and AUTHORS_HAND == (1.2e5, 0.75)
     nm = model_spec("authors_nm", None, LAWS, FRICTION)
     assert (nm.contact, nm.shell.hydro_modulus, nm.shell.hydro_dissipation) == ("hydroelastic", 1.55201e5, 0.405)
-    tuned = model_spec("hydro_tuned", 20.0, LAWS, FRICTION)
+    tuned = model_spec("hydro_half", 20.0, LAWS, FRICTION)
     assert tuned.shell.dissipation_scale == 0.5 and tuned.pressure_kpa == 20.0
     with pytest.raises(ValueError, match="^coupled shell model 'injected' needs the pressure$"):
         model_spec("injected", None, LAWS, FRICTION)

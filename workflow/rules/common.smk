@@ -13,7 +13,8 @@ from roboball.checks import check_config_dir
 from roboball.config import first_nonfinite, load_yaml
 from roboball.errors import RoboballError
 from roboball.pipeline.codedeps import stage_fingerprints
-from roboball.pipeline.plan import REPLAYS, Campaign, friction_models, schedule_args, sweep_cases
+from roboball.pipeline.plan import (REPLAYS, Campaign, friction_models, hydro_fit_settings, hydro_grid_moduli,
+                                    schedule_args, shell_pressure_groups, sweep_cases)
 
 
 ##### configs: checked before any job runs #####
@@ -71,6 +72,17 @@ RAMP = stems("ramp")
 CONTACTS = config["shell"]["contact_models"]
 RAMP_CONTACTS = config["ramp"]["contact_models"]
 SWEEP = sweep_cases(config["shell"]["sweep_factors"])
+# The hydroelastic calibration (issue 25): its grid's columns (job -> modulus), the shell
+# recordings by pressure, and the table the tuned contact model (hydro_tuned) and others read.
+HYDRO = hydro_fit_settings(config["shell"])
+HYDRO_GRID = hydro_grid_moduli(HYDRO)
+SHELL_GROUPS = shell_pressure_groups(REC, SHELL)
+HYDRO_TUNED = "results/identify/hydro_tuned.csv"
+if not SHELL_GROUPS and "hydro_tuned" in CONTACTS + RAMP_CONTACTS:
+    print("roboball: no shell recording with a known pressure: nothing to calibrate the tuned hydroelastic "
+          "model (hydro_tuned) on; it and Fig. S3 are skipped.")
+    CONTACTS = [c for c in CONTACTS if c != "hydro_tuned"]
+    RAMP_CONTACTS = [c for c in RAMP_CONTACTS if c != "hydro_tuned"]
 
 # Friction: the stand recording of each (dataset, joint) and every fitted (dataset, joint, law):
 # the test bed's steer and drive stands, and the real steer-stand log when present.
@@ -132,7 +144,8 @@ def report_figures():
     """The paper figures the uncertainty report links, in its order."""
     return ([f"{PF}/fig5_friction_laws.png", f"{PF}/fig7_testbed_steer_fits.png", f"{PF}/fig8_testbed_drive_fits.png",
              f"{PF}/fig10_shell_dynamics.png", f"{PF}/fig11_hydro_sensitivity.png", f"{PF}/fig13_ramp_pme.png",
-             f"{PF}/fig14_ramp_pme_mean.png"] + ([f"{PF}/fig7_real_steer_fits.png"] if REAL_ON else []))
+             f"{PF}/fig14_ramp_pme_mean.png"] + ([f"{PF}/figS3_hydro_calibration.png"] if SHELL_GROUPS else [])
+            + ([f"{PF}/fig7_real_steer_fits.png"] if REAL_ON else []))
 
 
 def final_targets():
@@ -154,6 +167,9 @@ def final_targets():
     if COUPLED_LOGS:
         targets += [f"{PF}/figS2_steer_coupled.png", f"{PF}/table_coupled_rms.csv", f"{PF}/table_coupled_rms.md"]
     targets += [f"results/report/{t}.html" for t in TABLE_NAMES]
+    if SHELL_GROUPS:
+        targets += [f"{PF}/figS3_hydro_calibration.png", f"{PF}/table_hydro_tuned.md", f"{PF}/table_hydro_tuned.csv",
+                    HYDRO_TUNED]
     return targets
 
 
@@ -198,9 +214,14 @@ def get_prior_json(wildcards):
     return json.dumps({wildcards.joint: {wildcards.law: joint[wildcards.law], "stand": joint["stand"]}}, sort_keys=True)
 
 
+def get_hydro_fit(wildcards):
+    """The calibration table, for the tuned hydroelastic model only."""
+    return [HYDRO_TUNED] if wildcards.contact == "hydro_tuned" else []
+
+
 def get_ramp_scales(wildcards):
     """(modulus, dissipation) scales of a ramp run: the sweep's carried-forward setting for
-    hydroelastic contact, none for the others."""
+    hydroelastic contact, none for the others (hydro_tuned runs its calibrated values as they are)."""
     if wildcards.contact == "hydroelastic":
         return (config["shell"]["carried_forward"]["modulus_scale"],
                 config["shell"]["carried_forward"]["dissipation_scale"])

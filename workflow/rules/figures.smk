@@ -105,11 +105,41 @@ rule fig13_14:
         pdfs=[f"{PF}/fig13_ramp_pme.pdf", f"{PF}/fig14_ramp_pme_mean.pdf"],
         csv=f"{PF}/table_pme.csv",
         md=f"{PF}/table_pme.md",
-    params: code=CODE["fig13-14"], campaign=config.get("campaign", "")
+    params:
+        code=CODE["fig13-14"],
+        campaign=config.get("campaign", ""),
+        hydro=lambda w: " ".join(f"{k.split('_')[0]} x{v:g}" for k, v in config["shell"]["carried_forward"].items()
+                                 if v != 1.0) or "eq. 10-11",
     log: "results/logs/fig13_14.log"
     shell:
         "{ROBOBALL} fig13-14 --summary {input} --out13 {output.fig13} --out14 {output.fig14} "
-        "--out-csv {output.csv} --out-md {output.md} --campaign {params.campaign:q} > {log} 2>&1"
+        "--out-csv {output.csv} --out-md {output.md} --campaign {params.campaign:q} "
+        "--hydro-setting {params.hydro:q} > {log} 2>&1"
+
+
+# Beyond the paper (issue 25): the hydroelastic calibration, its Drake grid, the contact-volume
+# law V(p) through the fitted moduli and the authors' values.
+rule figS3_hydro_calibration:
+    input:
+        table=HYDRO_TUNED,
+        law="results/identify/hydro_volume_law.csv",
+        grid=expand("results/hydro/grid/{col}.csv", col=list(HYDRO_GRID)),
+        regression="results/identify/shell_regression.csv",
+    output:
+        png=report(f"{PF}/figS3_hydro_calibration.png", category="6 Beyond the paper", caption="../report/figS3.rst",
+                   labels={"figure": "Fig. S3: hydroelastic calibration"}),
+        pdf=f"{PF}/figS3_hydro_calibration.pdf",
+        md=f"{PF}/table_hydro_tuned.md",
+        csv=f"{PF}/table_hydro_tuned.csv",
+    params:
+        code=CODE["figs2"],
+        authors=json.dumps(config["shell"].get("authors_hydro", [])),
+        campaign=config.get("campaign", ""),
+    log: "results/logs/figS3_hydro_calibration.log"
+    shell:
+        "{ROBOBALL} figs2 --table {input.table} --law {input.law} --grid-csvs {input.grid} "
+        "--regression {input.regression} --authors-json '{params.authors}' --campaign {params.campaign:q} "
+        "--out-png {output.png} --out-md {output.md} --out-csv {output.csv} > {log} 2>&1"
 
 
 rule corner:

@@ -16,6 +16,61 @@ rule shell_regression:
         "--out-table {output.table} > {log} 2>&1"
 
 
+# The hydroelastic calibration (issue 25, roboball.pipeline.hydro): Drake's hydroelastic shell
+# over a grid of moduli (one job per modulus) and dissipations, released like the recordings;
+# then at each pressure the modulus and dissipation that reproduce the recorded zeta and
+# omega_n, with Drake in the loop, and 95% intervals; the table and the contact-volume law V(p).
+rule hydro_grid:
+    input: expand("results/ingest/{stem}.releases.json", stem=SHELL)
+    output: "results/hydro/grid/{col}.csv"
+    params:
+        code=CODE["hydro-grid"],
+        modulus=lambda w: HYDRO_GRID[w.col],
+        d=HYDRO["dissipation_s_m"],
+        n=HYDRO["n_dissipation"],
+        duration=config["shell"]["sim_duration_s"],
+        dt=config["shell"]["dt_s"],
+    log: "results/logs/hydro/grid_{col}.log"
+    benchmark: "results/benchmarks/hydro/grid_{col}.tsv"
+    shell:
+        "{ROBOBALL} hydro-grid --releases {input} --modulus-pa {params.modulus} --dissipation-min-s-m {params.d[0]} "
+        "--dissipation-max-s-m {params.d[1]} --n-dissipation {params.n} --duration {params.duration} --dt {params.dt} "
+        "--out-csv {output} > {log} 2>&1"
+
+
+rule hydro_fit:
+    input:
+        grid=expand("results/hydro/grid/{col}.csv", col=list(HYDRO_GRID)),
+        decay=lambda w: [f"results/decay/{s}.csv" for s in SHELL_GROUPS[w.group]],
+        releases=lambda w: [f"results/ingest/{s}.releases.json" for s in SHELL_GROUPS[w.group]],
+    output: "results/hydro/fit/{group}.csv"
+    params:
+        code=CODE["hydro-fit"],
+        pressure=lambda w: float(REC[SHELL_GROUPS[w.group][0]]["pressure_kpa"]),
+        tol=HYDRO["tol"],
+        evals=HYDRO["max_drake_evals"],
+        draws=HYDRO["draws"],
+        seed=config["seed"],
+        duration=config["shell"]["sim_duration_s"],
+        dt=config["shell"]["dt_s"],
+    log: "results/logs/hydro/fit_{group}.log"
+    benchmark: "results/benchmarks/hydro/fit_{group}.tsv"
+    shell:
+        "{ROBOBALL} hydro-fit --grid-csvs {input.grid} --decay-csvs {input.decay} --releases {input.releases} "
+        "--pressure-kpa {params.pressure} --tol {params.tol} --max-evals {params.evals} --draws {params.draws} "
+        "--seed {params.seed} --duration {params.duration} --dt {params.dt} --out-csv {output} > {log} 2>&1"
+
+
+rule hydro_summary:
+    input: expand("results/hydro/fit/{group}.csv", group=list(SHELL_GROUPS))
+    output:
+        table=HYDRO_TUNED,
+        law="results/identify/hydro_volume_law.csv",
+    params: code=CODE["hydro-summary"]
+    log: "results/logs/hydro/summary.log"
+    shell: "{ROBOBALL} hydro-summary --fits {input} --out-csv {output.table} --out-law-csv {output.law} > {log} 2>&1"
+
+
 rule friction_fit:
     input: unpack(get_stand_recording)
     output:

@@ -10,17 +10,18 @@ rule shell_sim:
     input:
         releases="results/ingest/{stem}.releases.json",
         regression="results/identify/shell_regression.csv",
+        hydro_fit=get_hydro_fit,
     output: "results/shell_sim/{contact}/{stem}.csv"
     params:
         code=CODE["shell-sim"],
         duration=config["shell"]["sim_duration_s"],
         dt=config["shell"]["dt_s"],
-    wildcard_constraints: contact="point|injected|hydroelastic"
+    wildcard_constraints: contact="point|injected|hydroelastic|hydro_tuned"
     log: "results/logs/shell_sim/{contact}/{stem}.log"
     benchmark: "results/benchmarks/shell_sim/{contact}/{stem}.tsv"
     shell:
         "{ROBOBALL} shell-sim --releases {input.releases} --regression {input.regression} --contact {wildcards.contact} "
-        "--duration {params.duration} --dt {params.dt} --out-csv {output} > {log} 2>&1"
+        "--hydro-fit '{input.hydro_fit}' --duration {params.duration} --dt {params.dt} --out-csv {output} > {log} 2>&1"
 
 
 rule sweep_sim:
@@ -65,6 +66,7 @@ rule ramp_sim:
         csv="results/ingest/{stem}.csv",
         releases="results/ingest/{stem}.releases.json",
         regression="results/identify/shell_regression.csv",
+        hydro_fit=get_hydro_fit,
         **RAMP_FRICTION,
     output:
         pme="results/ramp/{contact}/{stem}.csv",
@@ -75,17 +77,18 @@ rule ramp_sim:
         dt=config["ramp"]["dt_s"],
         draws=config["ramp"]["posterior_draws"],
         seed=config["seed"],
-    wildcard_constraints: contact="point|injected|hydroelastic"
+    wildcard_constraints: contact="point|injected|hydroelastic|hydro_tuned"
     log: "results/logs/ramp/{contact}/{stem}.log"
     benchmark: "results/benchmarks/ramp/{contact}/{stem}.tsv"
     shell:
         "{ROBOBALL} ramp-sim --recording {input.csv} --releases {input.releases} --regression {input.regression} "
-        "--contact {wildcards.contact} --friction-steer {input.steer} --friction-drive {input.drive} "
+        "--contact {wildcards.contact} --hydro-fit '{input.hydro_fit}' --friction-steer {input.steer} --friction-drive {input.drive} "
         "--modulus-scale {params.scales[0]} --dissipation-scale {params.scales[1]} --dt {params.dt} "
         "--posterior-draws {params.draws} --seed {params.seed} --out-csv {output.pme} --out-trace {output.trace} > {log} 2>&1"
 
 
-# The paper's three contact models and the diagnosed fourth (diagnose.smk), side by side.
+# The paper's three contact models, the tuned hydroelastic one and the diagnosed model
+# (diagnose.smk), side by side.
 rule ramp_summary:
     input:
         expand("results/ramp/{contact}/{stem}.csv", contact=RAMP_CONTACTS, stem=RAMP),
@@ -178,6 +181,7 @@ rule figS2_steer_coupled:
         recordings=COUPLED_LOGS,
         regression="results/identify/shell_regression.csv",
         friction=fit_json("real", "steer", "majd"),
+        hydro_fit=[HYDRO_TUNED] if SHELL_GROUPS else [],
     output:
         png=report(f"{PF}/figS2_steer_coupled.png", category="6 Beyond the paper", caption="../report/figS2.rst",
                    labels={"figure": "Fig. S2: coupled steer test"}),
@@ -199,4 +203,4 @@ rule figS2_steer_coupled:
         "{ROBOBALL} steer-coupled --recordings {input.recordings} --regression {input.regression} "
         "--friction-steer {input.friction} --nm-evals {params.nm_evals} --out-json {output.summary} "
         "--out-csv {output.traces} --out-png {output.png} --table-csv {output.table_csv} "
-        "--table-md {output.table_md} > {log} 2>&1"
+        "--table-md {output.table_md} --hydro-fit '{input.hydro_fit}' > {log} 2>&1"

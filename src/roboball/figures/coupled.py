@@ -7,10 +7,11 @@ import pandas as pd
 # colour, line style per model; the recording is drawn as dots
 STYLE = {
     "point": ("#7f7f7f", ":"), "injected": ("#1f77b4", "-"), "hydroelastic": ("#d62728", "-"),
-    "hydro_tuned": ("#ff7f0e", "--"), "authors_nm": ("#9467bd", "-."), "authors_hand": ("#8c564b", ":"),
+    "hydro_half": ("#ff7f0e", "--"), "hydro_tuned": ("#bcbd22", "-"), "authors_nm": ("#9467bd", "-."), "authors_hand": ("#8c564b", ":"),
     "ours_nm": ("#e377c2", "--"), "diagnosed": ("#2ca02c", "-"),
 }
-LABELS = {"ours_nm": "ours: authors' objective refitted", "diagnosed": "diagnosed (held out)"}
+LABELS = {"ours_nm": "ours: authors' objective refitted", "diagnosed": "diagnosed (held out)",
+          "hydro_tuned": "hydroelastic, calibrated (Fig. S3)"}
 COORDS = (("pipe_angle_rad", "pipe angle phi (rad)"), ("steer_angle_rad", "steer joint angle theta (rad)"))
 
 

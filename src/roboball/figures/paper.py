@@ -12,6 +12,7 @@ from roboball.errors import RoboballError
 # The style, the atomic saver and the ingest QC plot live in .plotting, so that editing a figure
 # here reruns the figure rules only (the ingest stage imports .plotting, not this module).
 from roboball.figures.style import CONTACT_COLOURS, plt, save
+from roboball.kinds import CONTACT_MODELS
 
 STAGES = ("fig10", "fig11", "fig13_14", "table2")
 # Columns of the ramp summary that fig13_14 needs (roboball.pipeline.simulation.speed_errors).
@@ -52,9 +53,11 @@ def fig10(points: str, regression: str, sims: str, out_png: str, robot_yaml: str
         lo, hi = fit.band(pp)
         ax.plot(pp, fit.predict(pp), color="k", lw=1.5, label=f"regression: {law}")
         ax.fill_between(pp, lo, hi, color="k", alpha=0.12, label="95% confidence band")
-        for contact, g in sim.groupby("contact"):
+        shown = [c for c in CONTACT_MODELS if c in set(sim.contact)]
+        for k, contact in enumerate(shown):
+            g = sim[sim.contact == contact]
             m = g.groupby("pressure_kpa")[col].agg(["mean", "std"]).reset_index()
-            off = {"point": -0.35, "injected": 0.0, "hydroelastic": 0.35}.get(contact, 0)
+            off = 0.3 * (k - (len(shown) - 1) / 2)          # side by side at each pressure
             ax.errorbar(m.pressure_kpa + off, m["mean"], yerr=m["std"].fillna(0), fmt="s", mfc="none",
                         color=CONTACT_COLOURS[contact], ms=6, capsize=2, label=f"Drake, {contact} contact")
         ax.set_ylabel(f"{label} ({unit})")
@@ -153,7 +156,7 @@ def _pme_table(s: pd.DataFrame) -> pd.DataFrame:
     return agg.merge(d, on=["contact", "pressure_kpa"], how="left")
 
 
-def _fig13(s: pd.DataFrame, agg: pd.DataFrame, contacts: list, out: str, campaign: str) -> None:
+def _fig13(s: pd.DataFrame, agg: pd.DataFrame, contacts: list, out: str, campaign: str, names: dict) -> None:
     """Fig. 13: PME bars per pressure and model, the runs as dots, posterior whiskers."""
     pressures = sorted(s.pressure_kpa.unique())
     # Two panels: every model, and below it the models within DETAIL_PERCENT of the recording,
@@ -164,7 +167,7 @@ def _fig13(s: pd.DataFrame, agg: pd.DataFrame, contacts: list, out: str, campaig
         for k, c in enumerate(contacts):
             a = agg[agg.contact == c].set_index("pressure_kpa").reindex(pressures)
             x = np.arange(len(pressures)) + (k - (len(contacts) - 1) / 2) * w
-            axis.bar(x, a.pme_mean_percent, w * 0.9, color=CONTACT_COLOURS[c], label=c, alpha=0.85)
+            axis.bar(x, a.pme_mean_percent, w * 0.9, color=CONTACT_COLOURS[c], label=names[c], alpha=0.85)
             runs = s[s.contact == c]
             for i, p in enumerate(pressures):
                 r = runs[runs.pressure_kpa == p]
@@ -191,7 +194,7 @@ def _fig13(s: pd.DataFrame, agg: pd.DataFrame, contacts: list, out: str, campaig
     save(fig, out)
 
 
-def _fig14_signed(ax, s: pd.DataFrame, contacts: list, m: pd.Series) -> None:
+def _fig14_signed(ax, s: pd.DataFrame, contacts: list, m: pd.Series, names: dict) -> None:
     """Eq. 12's signed mean over pressures (the paper's Fig. 14), its mean written on each bar."""
     ax.bar(range(len(contacts)), m.values, color=[CONTACT_COLOURS[c] for c in contacts], alpha=0.85)
     for i, c in enumerate(contacts):
@@ -210,12 +213,12 @@ def _fig14_signed(ax, s: pd.DataFrame, contacts: list, m: pd.Series) -> None:
                     ha="center", va="bottom", fontsize=9,
                     bbox=dict(boxstyle="round,pad=0.15", fc="white", ec="none", alpha=0.8))
     ax.set_ylim(top=1.12 * span)
-    ax.set_xticks(range(len(contacts)), contacts)
+    ax.set_xticks(range(len(contacts)), [names[c] for c in contacts], fontsize=8)
     ax.set_ylabel("drive-speed PME averaged over pressures (%)")
     ax.set_title("eq. 12 (signed): + = model too fast", fontsize=9)
 
 
-def _fig14_absolute(ax_abs, s: pd.DataFrame, contacts: list) -> None:
+def _fig14_absolute(ax_abs, s: pd.DataFrame, contacts: list, names: dict) -> None:
     """The mean |point error| over the same samples, which cannot cancel, on a log scale where
     the small errors are visible too."""
     mabs = s.groupby("contact").mape_percent.mean().reindex(contacts)
@@ -235,7 +238,7 @@ def _fig14_absolute(ax_abs, s: pd.DataFrame, contacts: list) -> None:
                             ha="center", va="bottom", fontsize=9)
     if shown.any():
         ax_abs.set_ylim(top=3.0 * float(np.nanmax(s.mape_percent)))
-    ax_abs.set_xticks(range(len(contacts)), contacts)
+    ax_abs.set_xticks(range(len(contacts)), [names[c] for c in contacts], fontsize=8)
     ax_abs.set_ylabel("mean |point error| over pressures (%)")
     ax_abs.set_title("the same samples, absolute: errors cannot cancel", fontsize=9)
 
@@ -263,21 +266,27 @@ def _pme_markdown(s: pd.DataFrame, agg: pd.DataFrame, contacts: list, m: pd.Seri
     return "\n".join(lines) + "\n"
 
 
-def fig13_14(summary: str, out13: str, out14: str, out_csv: str, out_md: str, campaign: str = "") -> None:
+def fig13_14(summary: str, out13: str, out14: str, out_csv: str, out_md: str, campaign: str = "",
+             hydro_setting: str = "") -> None:
     """Fig. 13 (PME per pressure and model, spread over runs, posterior intervals) and Fig. 14
-    (averaged over pressures); the PME table as CSV and Markdown."""
+    (averaged over pressures); the PME table as CSV and Markdown.  `hydro_setting` names the
+    paper's hydroelastic variant the ramp runs (config shell.carried_forward, e.g. "dissipation
+    x0.5") in the figures' labels, beside the tuned one."""
     s = pd.read_csv(summary)
     missing = sorted(SUMMARY_COLUMNS - set(s.columns))
     if missing:
         raise RoboballError(f"{summary}: missing column(s) {', '.join(missing)} (written by roboball.pipeline.simulation)")
-    contacts = [c for c in ["point", "injected", "hydroelastic", "diagnosed"] if c in set(s.contact)]
+    contacts = [c for c in [*CONTACT_MODELS, "diagnosed"] if c in set(s.contact)]
     agg = _pme_table(s)
     write_csv_atomic(agg, out_csv)
-    _fig13(s, agg, contacts, out13, campaign)
+    names = {c: c for c in contacts}
+    if hydro_setting and "hydroelastic" in names:
+        names["hydroelastic"] = f"hydroelastic\n({hydro_setting})"
+    _fig13(s, agg, contacts, out13, campaign, {c: n.replace("\n", " ") for c, n in names.items()})
     fig, (ax, ax_abs) = plt.subplots(1, 2, figsize=(10, 4), gridspec_kw={"width_ratios": [1.3, 1]})
     m = s.groupby("contact").pme_percent.mean().reindex(contacts)
-    _fig14_signed(ax, s, contacts, m)
-    _fig14_absolute(ax_abs, s, contacts)
+    _fig14_signed(ax, s, contacts, m, names)
+    _fig14_absolute(ax_abs, s, contacts, names)
     fig.suptitle(f"Fig. 14: averaged drive speed error{_of(campaign)}", fontsize=10)
     save(fig, out14)
     write_text_atomic(out_md, _pme_markdown(s, agg, contacts, m))

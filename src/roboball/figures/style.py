@@ -13,7 +13,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 from roboball.atomic import savefig_atomic  # noqa: E402
 
-CONTACT_COLOURS = {"point": "#7f7f7f", "injected": "#1f77b4", "hydroelastic": "#d62728", "diagnosed": "#2ca02c"}
+CONTACT_COLOURS = {"point": "#7f7f7f", "injected": "#1f77b4", "hydroelastic": "#d62728", "hydro_tuned": "#ff7f0e",
+                   "diagnosed": "#2ca02c"}
 plt.rcParams.update({"font.size": 10, "axes.grid": True, "grid.alpha": 0.3, "savefig.dpi": 150,
                      "pdf.fonttype": 42, "svg.hashsalt": "roboball", "figure.constrained_layout.use": True})
 _META = {"png": {"Software": None}, "pdf": {"CreationDate": None, "Producer": None, "Creator": None}}

@@ -15,6 +15,10 @@ undeformed sphere that has a flat of radius a = sqrt(A / pi) intersects the grou
 depth delta = R - sqrt(R^2 - a^2) and volume V = pi delta^2 (3 R - delta) / 3.  At 13.8 kPa for
 the 41.3 kg robot this gives V = 2.33e-4 m^3 and a modulus of 1.74e6 Pa, near the authors' default
 of 1.8e6 Pa (tests/physics/test_shell_laws.py).
+
+Eq. 10 read the other way, V = f_n / modulus, turns the moduli the hydroelastic calibration fits
+(roboball.identify.shell.hydro) into contact volumes; `contact_volume_power` is the power law
+V(p) = V_ref (p / p_ref)^k that the calibration fits through them.
 """
 from __future__ import annotations
 
@@ -64,8 +68,24 @@ def contact_volume(p_pa: float, weight_n: float, radius_m: float) -> float:
 
 
 def hydro_modulus(p_pa: float, weight_n: float, radius_m: float) -> float:
-    """Eq. 10: hydroelastic modulus f_n / V(p) (Pa)."""
-    return weight_n / contact_volume(p_pa, weight_n, radius_m)
+    """Eq. 10: hydroelastic modulus f_n / V(p) (Pa), V(p) the membrane model."""
+    return modulus_of_volume(weight_n, contact_volume(p_pa, weight_n, radius_m))
+
+
+def modulus_of_volume(weight_n, volume_m3):
+    """Eq. 10: hydroelastic modulus f_n / V (Pa) of a contact volume V (m^3)."""
+    return weight_n / volume_m3
+
+
+def volume_of_modulus(weight_n, modulus_pa):
+    """Eq. 10 inverted: the contact volume V = f_n / modulus (m^3) a modulus (Pa) stands for."""
+    return weight_n / modulus_pa
+
+
+def contact_volume_power(p_pa, v_ref_m3, p_ref_pa, exponent):
+    """Power-law contact volume V(p) = V_ref (p / p_ref)^k (m^3), the law fitted through the
+    calibrated moduli (k < 0: the patch shrinks as the shell stiffens)."""
+    return v_ref_m3 * (p_pa / p_ref_pa) ** exponent
 
 
 def hydro_dissipation(zeta, omega_n, m_eq):

@@ -22,7 +22,8 @@ PACKAGE = "roboball"
 STAGE_MODULES = ("roboball.pipeline.ident", "roboball.pipeline.replays", "roboball.pipeline.simulation",
                  "roboball.figures.paper", "roboball.figures.friction", "roboball.report.uncertainty",
                  "roboball.report.tables", "roboball.pipeline.friction", "roboball.pipeline.deflating",
-                 "roboball.pipeline.diagnosis", "roboball.pipeline.coupled")
+                 "roboball.pipeline.diagnosis", "roboball.pipeline.coupled", "roboball.pipeline.hydro",
+                 "roboball.figures.hydro")
 ROBOT_FACTS_READER = "roboball.config"
 # Run by every stage besides its own closure: the runner that turns `roboball stage NAME --arg`
 # into the call (only its own file: its imports are the CLI's, not the stage's).

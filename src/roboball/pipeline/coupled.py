@@ -25,7 +25,10 @@ STAGES = ("steer_coupled",)
 # Scores of models fitted on all three repeats (by the authors, or by us on their objective)
 # are in-sample: the table says so.
 IN_SAMPLE = ("authors_nm", "authors_hand", "ours_nm")
-PAPER_MODELS = ("point", "injected", "hydroelastic", "hydro_tuned", "authors_nm", "authors_hand")
+# The paper's models and the authors' pairs; the calibrated hydroelastic shell (`hydro_tuned`) is
+# ours, not the paper's, but the diagnosed model must beat it too (acceptance 3 asks for "every
+# paper model"; beating one more is only stricter).
+PAPER_MODELS = ("point", "injected", "hydroelastic", "hydro_half", "authors_nm", "authors_hand", "hydro_tuned")
 
 
 def _rows(name, rep, pred, held_out, p_kpa):
@@ -41,16 +44,18 @@ def _trace(name, rep, pred) -> pd.DataFrame:
                          "pipe_angle_rad": pred["pipe_angle_rad"], "steer_angle_rad": pred["steer_angle_rad"]})
 
 
-def run_models(reps, laws, friction, pressure, authors_fit, diagnosed) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """(table, traces): every model on every repeat (see the module docstring)."""
+def run_models(reps, laws, friction, pressure, authors_fit, diagnosed, extra=()) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """(table, traces): every model of MODELS and `extra` on every repeat (see the module docstring)."""
     from roboball.diagnose.coupled import run
-    from roboball.sim.coupled import MODELS, coupled_spec, fixed_hydro, model_spec
+    from roboball.sim.coupled import MODELS, coupled_spec, fixed_hydro
 
     rows, traces = [], [_trace("recording", r, {"pipe_angle_rad": r.pipe, "steer_angle_rad": r.steer}) for r in reps]
-    for m in MODELS:
+    for m in (*MODELS, *extra):
         for r in reps:
             p = pressure.folds.get(r.name, pressure.p_kpa) if m.needs_pressure else None
-            pred = run(model_spec(m.name, p, laws, friction), r)
+            spec = coupled_spec(*m.shell(p, laws), friction)
+            spec.pressure_kpa = p
+            pred = run(spec, r)
             rows.append(_rows(m.name, r, pred, m.name not in IN_SAMPLE, p))
             traces.append(_trace(m.name, r, pred))
     contact, shell = fixed_hydro(*authors_fit["ours_params"])(None, laws)
@@ -115,9 +120,10 @@ def table_markdown(table: pd.DataFrame, summary: dict) -> str:
 
 
 def steer_coupled(recordings: list, regression: str, friction_steer: str, out_json: str, out_csv: str,
-                  out_png: str, table_csv: str, table_md: str, nm_evals: int = 30) -> None:
+                  out_png: str, table_csv: str, table_md: str, nm_evals: int = 30, hydro_fit: str = "") -> None:
     """Fig. S2, its table (CSV + Markdown), the traces (CSV) and the summary (JSON) of the
-    coupled steer test (see the module docstring)."""
+    coupled steer test (see the module docstring); with `hydro_fit` (the hydroelastic
+    calibration's table) the calibrated shell runs too."""
     from roboball.diagnose.coupled import fit_authors_objective, fit_pressure, read_repeats
     from roboball.diagnose.coupled_effects import held_out
     from roboball.figures.coupled import plot
@@ -133,7 +139,12 @@ def steer_coupled(recordings: list, regression: str, friction_steer: str, out_js
     pressure = fit_pressure(reps, laws, friction)
     authors = fit_authors_objective(reps, friction, max_evals=nm_evals)
     diagnosed = held_out(reps, laws, friction, pressure)
-    table, traces = run_models(reps, laws, friction, pressure, authors, diagnosed)
+    extra = ()
+    if hydro_fit:
+        from roboball.pipeline.simulation import tuned_at
+        from roboball.sim.coupled import calibrated
+        extra = (calibrated(lambda p: tuned_at(hydro_fit, p)),)
+    table, traces = run_models(reps, laws, friction, pressure, authors, diagnosed, extra)
     summary = {
         "pressure": {"p_kpa": pressure.p_kpa, "ci95_kpa": list(pressure.ci95_kpa), "folds": pressure.folds,
                      "grid_kpa": list(pressure.grid_kpa), "sse_grid_rad2": pressure.sse_grid,

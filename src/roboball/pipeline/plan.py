@@ -97,6 +97,36 @@ def friction_models(friction: dict) -> list:
     return [("steer", law) for law in friction["steer_laws"]] + [("drive", law) for law in friction["drive_laws"]]
 
 
+# The hydroelastic calibration's settings when config shell.hydro_fit leaves them out.
+DEFAULT_HYDRO_FIT = {"modulus_pa": [1.0e4, 3.0e6], "n_modulus": 8, "dissipation_s_m": [0.1, 10.0],
+                     "n_dissipation": 5, "tol": 0.01, "max_drake_evals": 4, "draws": 400}
+
+
+def hydro_fit_settings(shell: dict) -> dict:
+    """Config section shell.hydro_fit over its defaults."""
+    return {**DEFAULT_HYDRO_FIT, **(shell.get("hydro_fit") or {})}
+
+
+def hydro_grid_moduli(settings: dict) -> dict:
+    """The calibration grid's columns: job name -> modulus (Pa), log-spaced over the range."""
+    import numpy as np
+
+    lo, hi = settings["modulus_pa"]
+    return {f"m{k}": float(f"{m:.6g}") for k, m in enumerate(np.geomspace(lo, hi, settings["n_modulus"]))}
+
+
+def shell_pressure_groups(recordings: dict, stems: list) -> dict:
+    """Shell recordings by pressure: 'shell_13.8kpa' -> its stems (the calibration fits each
+    pressure to all releases recorded at it)."""
+    out: dict = {}
+    for s in stems:
+        p = recordings[s]["pressure_kpa"]
+        if p in ("", None) or float(p) != float(p):
+            continue                       # pressure unknown (a real log): nothing to calibrate at
+        out.setdefault(f"shell_{float(p):g}kpa", []).append(s)
+    return {g: sorted(v) for g, v in sorted(out.items(), key=lambda kv: float(kv[0][6:-3]))}
+
+
 DEFAULT_SCHEDULE = {"time_s": [0.0, 3.0], "pressure_kpa": [20.7, 6.9]}
 
 

@@ -32,40 +32,76 @@ def _releases(path):
         return json.load(fh)
 
 
-def shell_sim(releases: str, regression: str, contact: str, out_csv: str, modulus_scale: float = 1.0,
-              dissipation_scale: float = 1.0, duration: float = 9.0, dt: float = 0.001) -> None:
-    """Release the locked-steer Drake model like each recorded release; extract its decay with
-    the same code as the data.  One row per release."""
+def tuned_at(hydro_fit_csv: str, p_kpa: float) -> tuple[float, float]:
+    """(hydro_modulus Pa, dissipation s/m) of the tuned hydroelastic shell at pressure p: the
+    calibration's values (results/identify/hydro_tuned.csv), log-interpolated between its
+    pressures; a pressure outside them is refused (the fit says nothing there)."""
+    if not hydro_fit_csv:
+        raise RoboballError("contact hydro_tuned needs the hydroelastic calibration (--hydro-fit)")
+    f = pd.read_csv(hydro_fit_csv).sort_values("pressure_kpa")
+    ps = f.pressure_kpa.to_numpy()
+    if not ps.min() - 1e-6 <= p_kpa <= ps.max() + 1e-6:
+        raise RoboballError(f"{hydro_fit_csv}: pressure {p_kpa:g} kPa is outside the calibrated "
+                            f"{ps.min():g}-{ps.max():g} kPa")
+    return tuple(float(np.exp(np.interp(p_kpa, ps, np.log(f[c].to_numpy()))))
+                 for c in ("hydro_modulus_pa", "hydro_dissipation_s_m"))
+
+
+def shell_params(contact: str, p_kpa: float, regression: str, hydro_fit: str = "", **kw):
+    """(Drake contact, ShellParams) of a pipeline contact model at pressure p: the paper's
+    models take zeta and omega_n from the regression; `hydro_tuned` is Drake's hydroelastic
+    contact with the calibrated modulus and dissipation.  `kw` go to ShellParams."""
+    from roboball.sim.spec import ShellParams
+
+    zeta, omega = shell_at(regression, p_kpa)
+    if contact == "hydro_tuned":
+        modulus, dissipation = tuned_at(hydro_fit, p_kpa)
+        return "hydroelastic", ShellParams(zeta=zeta, omega_n=omega, hydro_modulus=modulus,
+                                           hydro_dissipation=dissipation, **kw)
+    return contact, ShellParams(zeta=zeta, omega_n=omega, **kw)
+
+
+def drake_decay(spec, release_rad: float, duration: float, omega_guess: float) -> dict:
+    """Release the Drake shell `spec` from `release_rad` and extract its decay with the same code
+    as the recordings' (nan where no decay can be extracted)."""
     from roboball.identify.shell.decay import extract_decay
     from roboball.ingest.releases.record import Release
     from roboball.sim.scenarios import simulate
-    from roboball.sim.spec import ShellParams, SimSpec
+
+    df = simulate(spec, release_rad, duration, sample_rate_hz=100.0)
+    t, y = df.time_s.to_numpy(), df.pipe_angle_rad.to_numpy()
+    rel = Release(t_release_s=0.0, t_end_s=float(t[-1]), i_release=0, i_end=len(t) - 1,
+                  y_release=float(y[0]), y_rest=float(np.mean(y[-100:])), held_from_s=0.0,
+                  half_period_s=math.pi / omega_guess, noise=2e-4, kind="shell_rock")
+    try:
+        res = extract_decay(t, y, rel, noise=2e-4)
+        return {"zeta": res.zeta, "zeta_se": res.zeta_se, "omega_n_rad_s": res.omega_n,
+                "omega_n_se_rad_s": res.omega_n_se}
+    except RoboballError:
+        return {"zeta": float("nan"), "zeta_se": float("nan"), "omega_n_rad_s": float("nan"),
+                "omega_n_se_rad_s": float("nan")}
+
+
+def shell_sim(releases: str, regression: str, contact: str, out_csv: str, modulus_scale: float = 1.0,
+              dissipation_scale: float = 1.0, duration: float = 9.0, dt: float = 0.001,
+              hydro_fit: str = "") -> None:
+    """Release the locked-steer Drake model like each recorded release; extract its decay with
+    the same code as the data.  One row per release."""
+    from roboball.sim.spec import SimSpec
 
     info = _releases(releases)
     p = info["pressure_kpa"]
     if p is None:
         raise RoboballError(f"{releases}: shell simulation needs the recording's pressure")
-    zeta, omega = shell_at(regression, p)
-    spec = SimSpec(kind="shell_rock", contact=contact, pressure_kpa=p, dt=dt,
-                   shell=ShellParams(zeta=zeta, omega_n=omega, modulus_scale=modulus_scale,
-                                     dissipation_scale=dissipation_scale))
+    drake_contact, sp = shell_params(contact, p, regression, hydro_fit, modulus_scale=modulus_scale,
+                                     dissipation_scale=dissipation_scale)
+    spec = SimSpec(kind="shell_rock", contact=drake_contact, pressure_kpa=p, dt=dt, shell=sp)
     rows = []
     for i, r in enumerate(info["releases"], start=1):
-        df = simulate(spec, r["y_release"], duration, sample_rate_hz=100.0)
-        t, y = df.time_s.to_numpy(), df.pipe_angle_rad.to_numpy()
-        rel = Release(t_release_s=0.0, t_end_s=float(t[-1]), i_release=0, i_end=len(t) - 1,
-                      y_release=float(y[0]), y_rest=float(np.mean(y[-100:])), held_from_s=0.0,
-                      half_period_s=math.pi / omega, noise=2e-4, kind="shell_rock")
-        try:
-            res = extract_decay(t, y, rel, noise=2e-4)
-            row = {"zeta": res.zeta, "zeta_se": res.zeta_se, "omega_n_rad_s": res.omega_n,
-                   "omega_n_se_rad_s": res.omega_n_se}
-        except RoboballError:
-            row = {"zeta": float("nan"), "zeta_se": float("nan"), "omega_n_rad_s": float("nan"),
-                   "omega_n_se_rad_s": float("nan")}
+        row = drake_decay(spec, r["y_release"], duration, sp.omega_n)
         rows.append({"release": i, "pressure_kpa": p, "contact": contact, "modulus_scale": modulus_scale,
                      "dissipation_scale": dissipation_scale, "release_rad": r["y_release"],
-                     "zeta_input": zeta, "omega_n_input_rad_s": omega, **row})
+                     "zeta_input": sp.zeta, "omega_n_input_rad_s": sp.omega_n, **row})
     write_csv_atomic(pd.DataFrame(rows), out_csv)
 
 
@@ -92,28 +128,28 @@ def ramp_window(rec, releases: str) -> tuple[np.ndarray, np.ndarray, float]:
 def ramp_sim(recording: str, releases: str, regression: str, contact: str, out_csv: str,
              out_trace: str = "", friction_steer: str = "", friction_drive: str = "",
              dissipation_scale: float = 1.0, modulus_scale: float = 1.0, dt: float = 0.001,
-             posterior_draws: int = 0, seed: int = 0) -> None:
+             posterior_draws: int = 0, seed: int = 0, hydro_fit: str = "") -> None:
     """Ramp descent of one recorded run with `contact`, Majd friction on both joints (fitted
     medians when given, else Table I), started from the recording's initial pipe angle; the
     drive rate is compared with the recording until the robot leaves the ramp.  The
     `posterior_draws` friction draws come from the campaign's `seed` and the run's name."""
     from roboball.ingest.recording import read_recording
     from roboball.sim.scenarios import simulate
-    from roboball.sim.spec import ShellParams, SimSpec
+    from roboball.sim.spec import SimSpec
 
     rec = read_recording(recording)
     tt, w_e, pipe0 = ramp_window(rec, releases)
     p = rec.pressure_kpa
-    zeta, omega = shell_at(regression, p)
     from roboball.identify.friction.fitted import read_joint_friction
 
     params = read_joint_friction(friction_steer, friction_drive)
-    shell = ShellParams(zeta=zeta, omega_n=omega, modulus_scale=modulus_scale, dissipation_scale=dissipation_scale,
-                        injected_steer=False, injected_drive=True)
+    drake_contact, shell = shell_params(contact, p, regression, hydro_fit, modulus_scale=modulus_scale,
+                                        dissipation_scale=dissipation_scale, injected_steer=False,
+                                        injected_drive=True)
     duration = float(tt[-1]) + 0.05
 
     def run(fp):
-        spec = SimSpec(kind="ramp", contact=contact, friction={"steer": "majd", "drive": "majd"},
+        spec = SimSpec(kind="ramp", contact=drake_contact, friction={"steer": "majd", "drive": "majd"},
                        friction_params={k: v for k, v in fp.items() if v}, pressure_kpa=p, shell=shell, dt=dt,
                        ramp_angle_deg=rec.meta.get("ramp_angle_deg"))
         df = simulate(spec, pipe0, duration, sample_rate_hz=200.0)

@@ -46,6 +46,10 @@ FIGURE_CAPTIONS = {
                       "are runs, whiskers 95% ranges over friction-posterior draws.",
     "fig14_ramp_pme_mean": "Fig. 14: drive-speed error of each contact model over all pressures and runs: the signed "
                            "PME of eq. 12 and the mean absolute error.",
+    "figS3_hydro_calibration": "Fig. S3 (beyond the paper): the hydroelastic shell calibrated to the shell releases: "
+                               "Drake's damping ratio and natural frequency over modulus and dissipation, the fitted "
+                               "values with 95% intervals as contact volumes V(p) (eq. 10) against the membrane law "
+                               "and the authors' values, and the fitted dissipations against eq. 11.",
 }
 
 
