@@ -124,19 +124,22 @@ def test_read_joint_friction_keeps_each_file_on_its_joint_and_leaves_out_empty_p
     assert read_joint_friction("", "") == {} and read_joint_friction() == {}
 
 
-def test_pooled_ramp_runs_against_fitted_friction_name_the_rolling_damping():
-    """The test bed hides a damping of the shell's rolling in its ramp runs (2.39 N m s/rad at
-    20.7 kPa, with a rolling resistance of 0.93 N m beside it).  Two runs pooled against the
-    calibrated point model name viscous damping on the drive dof; its held-out run is a whole
-    run, and the held-out error falls by far more than 90%."""
+def test_pooled_ramp_runs_against_fitted_friction_name_the_rolling_resistance():
+    """The test bed's membrane shell (docs/testbed.md) resists the start of a ramp run with the
+    flat it sat on and loses a little to its skin's hysteresis, past its loss peak at ramp speeds.
+    Two runs pooled against the calibrated point model name one rolling resistance on the drive
+    dof (1.2-1.6 N m at 20.7 kPa, measured 1.39); its held-out run is a whole run, and the
+    held-out error falls by more than 70% (measured 78%: one constant torque is not the
+    membrane's speed-dependent loss, and the residual keeps the rest; on the campaign before
+    issue 25, which hid the vocabulary's own damping, it fell by more than 90%)."""
     d, js = diagnose([RAMP / "ramp_20.7kpa_r2.csv", RAMP / "ramp_20.7kpa_r3.csv"], friction=FITTED)
     effects = {m["effect"]: m for m in js["missing_physics"]}
-    assert "viscous_damping" in effects and effects["viscous_damping"]["dof"] == "drive"
-    assert 2.0 < effects["viscous_damping"]["parameters"]["c"] < 3.2
+    assert list(effects) == ["rolling_resistance"] and effects["rolling_resistance"]["dof"] == "drive"
+    assert 1.2 < effects["rolling_resistance"]["parameters"]["tau_rr"] < 1.6
     assert js["baseline"]["friction"] == FITTED
     assert "Majd friction (fitted)" in js["baseline"]["description"]
     assert len(d.prep.windows) == 2 and len(d.folds) == 2
-    assert js["fit"]["rmse_heldout_after"] < 0.1 * js["fit"]["rmse_heldout_before"]
+    assert js["fit"]["rmse_heldout_after"] < 0.3 * js["fit"]["rmse_heldout_before"]
     # Each run starts at rest at its detected release, the instant Fig. 13/14 scores every model
     # from: no start shift is fitted (a late start would stand in for a rolling resistance).
     assert not [k for k in list(d.final.values) + list(d.baseline.values) if k.startswith(("ts@", "q0@"))]
@@ -150,7 +153,7 @@ def test_diagnosed_ramp_model_runs_on_its_diagnoses_baseline_friction(tmp_path):
     diagnoses made against different friction are refused."""
     csv, rel = tmp_path / "run.csv", tmp_path / "run.releases.json"
     ingest(str(RAMP / "ramp_20.7kpa_r1.csv"), str(csv), str(rel), str(tmp_path / "qc.png"))
-    effects = [{"effect": "viscous_damping", "dof": "drive", "parameters": {"c": 2.7}}]
+    effects = [{"effect": "rolling_resistance", "dof": "drive", "parameters": {"tau_rr": 1.42}}]   # found at 20.7 kPa
     table1 = tmp_path / "t1" / "diagnosis.json"
     fitted = tmp_path / "fit" / "diagnosis.json"
     for path, baseline in ((table1, {}), (fitted, {"friction": FITTED})):
@@ -165,7 +168,7 @@ def test_diagnosed_ramp_model_runs_on_its_diagnoses_baseline_friction(tmp_path):
     w1 = pd.read_csv(tmp_path / "t1.trace.csv").drive_rate_sim_rad_s.to_numpy()
     w2 = pd.read_csv(tmp_path / "fit.trace.csv").drive_rate_sim_rad_s.to_numpy()
     assert np.max(np.abs(w1 - w2)) > 0.05
-    # calibrated friction + the damping found: within 2% of the recording (Table I's is not the baseline here)
+    # calibrated friction + the rolling resistance found: within 2% of the recording (Table I's is not the baseline here)
     assert abs(pd.read_csv(tmp_path / "fit.csv").pme_percent.iloc[0]) < 2.0
 
 
@@ -187,41 +190,33 @@ def test_cli_diagnoses_several_recordings_with_fitted_friction(tmp_path, capsys)
     assert len(err.splitlines()) == 1 and "cannot be pooled" in err
 
 
-def test_the_hidden_pair_is_named_and_a_drag_below_materiality_is_reported_with_its_interval(tmp_path):
-    """At 10.3 kPa the test bed hides a rolling damping and a rolling resistance in its ramp runs:
-    the pooled diagnosis names both (materiality counted in the noise of the averaged trend the
-    fit compares, about a tenth of the sensor's variance).  A quadratic drag after them lowers
-    the BIC and the held-out error and its interval excludes zero, but it lowers the held-out
-    mean square by less than the 4 noise variances materiality asks: it is not added (the
-    contract's missing_physics lists only the model's effects), but the report, details.json
-    and the pipeline's uncertainty report show it with its interval and why it was refused."""
+def test_the_membrane_shell_is_named_as_one_rolling_resistance_with_its_interval(tmp_path):
+    """At 10.3 kPa the test bed's membrane shell hides its flat's start-up resistance and its
+    skin's hysteresis loss in the ramp runs: the pooled diagnosis (materiality counted in the
+    noise of the averaged trend the fit compares, about a third of the sensor's here) names one
+    rolling resistance, 2.2-2.9 N m (measured 2.53), and no candidate is refused for materiality
+    alone.  (On the campaign before issue 25 it named a rolling damping + rolling resistance pair
+    and refused a quadratic drag for materiality; that path is no longer exercised on campaign
+    data.)"""
     from roboball.diagnose.keep import immaterial
     from roboball.report.uncertainty import _immaterial
 
     out = tmp_path / "d"
     d, js = diagnose([RAMP / f"ramp_10.3kpa_r{r}.csv" for r in (1, 2, 3)], out_dir=out, drake=False,
                      friction=FITTED)
-    assert [m["effect"] for m in js["missing_physics"]] == ["viscous_damping", "rolling_resistance"]
-    rr = js["missing_physics"][1]
+    assert [m["effect"] for m in js["missing_physics"]] == ["rolling_resistance"]
+    rr = js["missing_physics"][0]
     assert 0 < rr["ci95"]["tau_rr"][0] < rr["parameters"]["tau_rr"] < rr["ci95"]["tau_rr"][1]
-    (drag,) = d.immaterial
-    assert drag["effect"] == "quadratic_drag" and drag["failed"] == ["material"]
-    assert drag["delta_bic"] < -10 and 0 < drag["heldout_gain"] < 4
-    lo, hi = drag["ci95"]["quadratic_drag.c2"]
-    assert 0 < lo < drag["params"]["quadratic_drag.c2"] < hi
+    assert 2.2 < rr["parameters"]["tau_rr"] < 2.9
     details = json.loads((out / "details.json").read_text())
-    assert [i["effect"] for i in details["immaterial"]] == ["quadratic_drag"]
-    assert immaterial(details["rounds"]) == details["immaterial"]
+    assert d.immaterial == [] and details["immaterial"] == [] and immaterial(details["rounds"]) == []
     assert details["fit_noise"] < 0.4 * details["noise"]             # the trend's noise, not the sensor's
     report = (out / "report.md").read_text()
-    section = report.split("### Supported by the data, below materiality")[1].split("## Fit")[0]
-    assert "| quadratic_drag | drive | c2 = " in section and f"{drag['heldout_gain']:.3g}" in section
-    # the selection states the rule it applied and each candidate's decision
+    # the selection states the rule it applied
     assert "at least 4 noise variances (materiality)" in report
     assert "of the averaged trend the fit compares" in report
     assert "A ramp window starts at the release" in report and "first turning point" not in report
-    assert "**quadratic_drag** |" in report.split("Round 3:")[1] and "below 4 |" in report.split("Round 3:")[1]
-    assert _immaterial(out / "details.json").startswith("quadratic_drag (c2 = ")
+    assert _immaterial(out / "details.json") == ""
     assert _immaterial(tmp_path / "absent" / "details.json") == ""
 
 

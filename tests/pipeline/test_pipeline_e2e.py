@@ -80,12 +80,16 @@ def test_every_listed_figure_and_table_is_built(built):
     assert set(pme.contact) == {"point", "injected", "hydroelastic", "diagnosed"}
     assert set(pme[pme.contact == "diagnosed"].pressure_kpa) == {6.9, 10.3, 13.8, 17.2, 20.7}
     assert "Diagnosis of missing physics" in (pf / "uncertainty_report.html").read_text()
-    # Issue 6, acceptance 2: the ramp runs' hidden pair (rolling damping + rolling resistance) is
-    # named at every pressure, and out of sample the diagnosed model's eq. 12 PME is below each
-    # of the paper's three models at every pressure
+    # Issues 6 and 25, acceptance 4: what the ramp runs hide is named at every pressure, and out
+    # of sample the diagnosed model's eq. 12 PME is below each of the paper's three models at
+    # every pressure.  Since issue 25 the test bed's shell is a membrane with a bedliner skin
+    # (docs/testbed.md): on the ramp its flat resists the start and its hysteresis loss falls as
+    # 1 / omega above 0.5-0.9 rad/s, so no speed-proportional loss is left at ramp speeds and
+    # what the point model lacks reads as one torque opposing rolling (it was a rolling damping
+    # + rolling resistance pair when the test bed held the injected model's c0 exp(c1 p)).
     for p in (6.9, 10.3, 13.8, 17.2, 20.7):
         js = json.loads((built / "results" / "diagnose" / "pressure" / f"ramp_{p}kpa" / "diagnosis.json").read_text())
-        assert [m["effect"] for m in js["missing_physics"]] == ["viscous_damping", "rolling_resistance"], p
+        assert [m["effect"] for m in js["missing_physics"]] == ["rolling_resistance"], p
         at = pme[pme.pressure_kpa == p].set_index("contact")["pme_mean_percent"].abs()
         assert at["diagnosed"] < min(at["point"], at["injected"], at["hydroelastic"]), (p, at.to_dict())
     for scenario in ["steer_stand", "drive_stand", "shell_rock", "ramp"]:

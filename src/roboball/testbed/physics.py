@@ -2,14 +2,13 @@
 from __future__ import annotations
 
 import copy
-import math
-
 import numpy as np
 import pydrake.symbolic as sym
 from pydrake.systems.primitives import SymbolicVectorSystem
 
 from roboball.config import RobotFacts, load_robot
-from roboball.sim.forces import SYM, GeneralizedTerm, Kin
+from roboball.sim.forces import SYM
+from roboball.testbed import membrane
 
 
 def load_truth(path=None) -> dict:
@@ -67,30 +66,12 @@ def lugre_system(joint_params: dict):
     return make
 
 
-def shell_truth_terms(truth: dict, p_kpa: float, robot: RobotFacts, extras: bool = True) -> list:
-    """Shell torques of the real (virtual) shell at pressure p, on top of hydroelastic contact."""
-    if not extras or p_kpa is None:
+def shell_truth_systems(truth: dict, p_kpa: float, robot: RobotFacts, roll_from_flat: float = 0.0) -> list:
+    """The real (virtual) shell at pressure p, on top of hydroelastic contact: the membrane and
+    bedliner law of roboball.testbed.membrane, as a discrete system at the test bed's step.
+    `roll_from_flat` (rad): how far a hand has rolled the shell from the flat it rested on."""
+    if p_kpa is None:
         return []
-    sh = truth["shell"]
-    k = sh["roll_stiffness"]["k0"] + sh["roll_stiffness"]["k1"] * p_kpa
-    c = sh["linear_damping"]["c0"] * math.exp(sh["linear_damping"]["c1"] * p_kpa)
-    qd = sh["quadratic_damping"]["q"]
-    rr = sh["rolling_resistance"]
-    crr = rr["crr_ref"] * (rr["p_ref_kpa"] / p_kpa) ** rr["exponent"]
-    t_rr = crr * robot.weight_n * robot.radius
-    eps = rr["rate_eps"]
-
-    def roll(kin: Kin):
-        phi, rate = kin.pipe_angle(), kin.pipe_rate()
-        return [(kin.layout.base_v, -(k * phi + c * rate + qd * sym.abs(rate) * rate))]
-
-    def drive(kin: Kin):
-        w = kin.drive_rate()
-        t = -(c * w + t_rr * sym.tanh(w / eps))
-        R = kin.base_rotation()
-        out = [(kin.layout.base_v + i, R[i][1] * t) for i in range(3)]
-        if "drive" in kin.layout.joint_v:
-            out.append((kin.layout.joint_v["drive"], -t))
-        return out
-
-    return [GeneralizedTerm(roll, name="testbed_shell_roll"), GeneralizedTerm(drive, name="testbed_shell_drive")]
+    bedliner = truth["shell"]["bedliner"]
+    pt = membrane.patch(robot.weight_n, robot.radius, p_kpa, bedliner["set_tension_n_m"])
+    return [membrane.shell_system(pt, bedliner, roll_from_flat)]

@@ -8,14 +8,14 @@ import numpy as np
 from roboball.physics import shell as shell_laws
 from roboball.sim.scenarios import simulate
 from roboball.sim.spec import ShellParams, SimSpec
-from roboball.testbed.physics import load_truth, lugre_system, shell_truth_terms, true_robot
+from roboball.testbed.physics import load_truth, lugre_system, shell_truth_systems, true_robot
 
 ALL_EXTRAS = frozenset({"friction", "shell", "mass", "hydro"})
 
 
 def truth_spec(kind: str, p_kpa: float | None, truth: dict, extras=ALL_EXTRAS,
                ramp_length_m: float | None = None, extra_terms=(), extra_systems=(),
-               base_friction: dict | None = None, robot=None) -> SimSpec:
+               base_friction: dict | None = None, robot=None, release: float | None = None) -> SimSpec:
     """The test bed's simulation spec.  `extras` switches the hidden physics on or off:
     friction (LuGre/Stribeck instead of Table I Majd), shell (shell torques), mass (mass
     properties differ from the URDF), hydro (fine-mesh hydroelastic instead of point contact).
@@ -23,7 +23,9 @@ def truth_spec(kind: str, p_kpa: float | None, truth: dict, extras=ALL_EXTRAS,
     Blind diagnosis cases (benchmarks/diagnose_blind.py) use two more options, both off by
     default: `base_friction` ({joint: (law, params)}) replaces the joints' friction laws without
     "friction" in `extras` (e.g. viscous with a drawn coefficient), and `robot` replaces the
-    robot facts (e.g. a centre of mass moved by roboball.testbed.effects)."""
+    robot facts (e.g. a centre of mass moved by roboball.testbed.effects).  `release`: the
+    held value of the experiment's coordinate; a shell held away from its rest has rolled off the
+    flat it rested on (roboball.testbed.membrane)."""
     extras = frozenset(extras)
     sim = truth["simulation"]
     if robot is None:
@@ -49,7 +51,8 @@ def truth_spec(kind: str, p_kpa: float | None, truth: dict, extras=ALL_EXTRAS,
             p_kpa * 1e3, robot.weight_n, robot.radius), hydro_dissipation=sh["hunt_crossley_s_m"])
     terms = list(extra_terms)
     if not stand and "shell" in extras:
-        terms += shell_truth_terms(truth, p_kpa, robot)
+        off_flat = release - robot.shell_rest_angle if kind == "shell_rock" and release is not None else 0.0
+        systems += shell_truth_systems(truth, p_kpa, robot, off_flat)
     return SimSpec(kind=kind, contact=contact, friction=friction, friction_params=friction_params,
                    pressure_kpa=p_kpa, shell=shell, dt=dt, extra_terms=terms, extra_systems=systems, robot=robot,
                    resolution_hint=sim["hydro_resolution_hint_m"], ramp_length_m=ramp_length_m,
@@ -62,7 +65,7 @@ def run_free(kind: str, release: float, duration: float, p_kpa=None, truth=None,
     """Free response from rest at `release`; returns (df at 1 kHz, states, spec)."""
     truth = truth or load_truth()
     spec = truth_spec(kind, p_kpa, truth, extras, ramp_length_m, extra_terms, extra_systems,
-                      base_friction=base_friction, robot=robot)
+                      base_friction=base_friction, robot=robot, release=release)
     df, x = simulate(spec, release, duration, sample_rate_hz=truth["simulation"]["sample_rate_hz"],
                      return_states=True)
     return df, x, spec
