@@ -65,7 +65,7 @@ def fig10(points: str, regression: str, sims: str, out_png: str, robot_yaml: str
                     label=f"eq. 5: $\\sqrt{{K_{{eq}}/M_{{eq}}}}$ = {robot.omega_n_eq5:.3f} rad/s")
     a, b = reg.zeta.value("zeta_a"), reg.zeta.value("zeta_b")
     c, d = reg.omega_n.value("omega_n_c"), reg.omega_n.value("omega_n_d")
-    axes[0].set_title(f"$\\zeta(p) = {a:.3f}\\,e^{{{b:.4f}\\,p}}$,  $\\omega_n(p) = {c:.3f} + {d:.4f}\\,p$")
+    axes[0].set_title(f"$\\zeta(p) = {a:.3f}\\,e^{{{b:.4f}\\,p}}$,  $\\omega_n(p) = {c:.3f} {'-' if d < 0 else '+'} {abs(d):.4f}\\,p$")
     axes[1].set_xlabel("shell gauge pressure p (kPa)")
     for ax in axes:
         ax.legend(fontsize=7, loc="best", ncol=2)
@@ -282,8 +282,11 @@ def fig13_14(summary: str, out13: str, out14: str, out_csv: str, out_md: str, ca
     names = {c: c for c in contacts}
     if hydro_setting and "hydroelastic" in names:
         names["hydroelastic"] = f"hydroelastic\n({hydro_setting})"
+    if "hydro_tuned" in names:
+        names["hydro_tuned"] = "hydroelastic\n(calibrated, Fig. S3)"
     _fig13(s, agg, contacts, out13, campaign, {c: n.replace("\n", " ") for c, n in names.items()})
-    fig, (ax, ax_abs) = plt.subplots(1, 2, figsize=(10, 4), gridspec_kw={"width_ratios": [1.3, 1]})
+    # 12 in wide: five two-line model names side by side without overlapping
+    fig, (ax, ax_abs) = plt.subplots(1, 2, figsize=(14, 4.2), gridspec_kw={"width_ratios": [1.2, 1.2]})
     m = s.groupby("contact").pme_percent.mean().reindex(contacts)
     _fig14_signed(ax, s, contacts, m, names)
     _fig14_absolute(ax_abs, s, contacts, names)
