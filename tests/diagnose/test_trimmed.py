@@ -92,10 +92,17 @@ def test_a_steer_coupled_recording_is_refused_by_the_reduced_model_diagnosis_by_
 def test_diagnosing_a_steer_coupled_log_without_its_friction_fit_is_a_one_line_error(capsys, tmp_path):
     path = real_file(COUPLED[1])
     missing = tmp_path / "no_fit.json"
-    code, _, err = _cli(["diagnose", str(path), "--out", str(tmp_path / "d"), "--friction-steer", str(missing)], capsys)
+    regression = tmp_path / "shell_regression.csv"      # present, so the missing fit is what is named
+    regression.write_text("name,value\nzeta_a,0.23\nzeta_b,-0.0386\nomega_n_c,2.70\nomega_n_d,0.0276\n")
+    code, _, err = _cli(["diagnose", str(path), "--out", str(tmp_path / "d"), "--friction-steer", str(missing),
+                         "--regression", str(regression)], capsys)
     assert code != 0 and len(err.splitlines()) == 1, err
     assert f"{missing}: steer friction fit (pipeline rule friction_fit, real steer stand) not found" in err
     assert "Traceback" not in err
+    # and without the regression, that is named first, in one line
+    code, _, err = _cli(["diagnose", str(path), "--out", str(tmp_path / "d"), "--friction-steer", str(missing),
+                         "--regression", str(tmp_path / "none.csv")], capsys)
+    assert code != 0 and len(err.splitlines()) == 1 and "none.csv: shell regression table" in err, err
 
 
 def test_the_workflow_manifest_refuses_steer_coupled_in_one_line(tmp_path):

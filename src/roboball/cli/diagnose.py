@@ -53,10 +53,11 @@ class Progress:
 
         self.t0 = self.last = time.perf_counter()
         self.verbose, self.every_s, self.out = verbose, every_s, out or sys.stderr
-        self.rounds, self.stage = 0, "fitting the baseline model"
+        # Nothing is said until the recording has been read and checked: a refused recording
+        # gets its one-line error alone.
+        self.label, self.rounds, self.stage = label, 0, "reading the recording"
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._heartbeat, daemon=True)
-        self.say(f"diagnosing {label}: {self.stage} ...")
         self._thread.start()
 
     def say(self, text: str) -> None:
@@ -67,7 +68,11 @@ class Progress:
         """The search's log messages (roboball.diagnose.select), translated."""
         if self.verbose:
             self.say(msg)
-        if msg.startswith("baseline:"):
+        if msg.startswith("data:"):
+            self.stage = "fitting the baseline model"
+            if not self.verbose:
+                self.say(f"diagnosing {self.label} ({msg.split(':', 1)[1].strip()}): {self.stage} ...")
+        elif msg.startswith("baseline:"):
             self.stage = "adding candidate effects, one round at a time"
             if not self.verbose:
                 fit = msg.split(":", 1)[1].split(", rho1")[0].strip()
@@ -108,6 +113,7 @@ def cmd_diagnose_coupled(args) -> int:
     label = " + ".join(args.recording)
     progress = Progress(label, verbose=True)
     progress.stage = "Drake runs of the coupled model (pressure, screen, refit, held-out folds)"
+    progress.say(f"diagnosing {label}: {progress.stage} ...")
     try:
         js = diagnose_coupled(args.recording, args.out, args.regression, friction, log=progress)
     except ValueError as exc:

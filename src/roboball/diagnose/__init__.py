@@ -42,6 +42,8 @@ def diagnose(recording, out_dir=None, kind: str | None = None, pressure_kpa: flo
         raise ValueError("no recording to diagnose")
     recs = [r if isinstance(r, Recording) else read(r, kind=kind, pressure_kpa=pressure_kpa) for r in items]
     prep = pool([prepare(r) for r in recs])
+    if log:
+        log(f"data: {len(prep.windows)} release window(s) of {prep.kind}")
     model = None
     if friction:
         if prep.kind != "ramp":
