@@ -25,22 +25,34 @@ from __future__ import annotations
 import fcntl
 import os
 import sys
+import time
 from pathlib import Path
 
 STATE_DIR = Path(".snakemake")
 LOCK_NAME = "roboball-run.lock"
 
 
-def acquire(state_dir: Path = STATE_DIR) -> int | None:
-    """Take the run lock (non-blocking); the open file descriptor, or None if another run holds it."""
+# A run killed a moment ago may still hold the lock while the kernel tears its jobs down (a Drake
+# job's large address space takes a while to free, longer on a loaded machine): wait that long
+# before calling the holder a live run.
+GRACE_S = 10.0
+
+
+def acquire(state_dir: Path = STATE_DIR, grace_s: float = 0.0) -> int | None:
+    """Take the run lock, trying for up to `grace_s` seconds; the open file descriptor, or None
+    if another run holds it."""
     state_dir.mkdir(parents=True, exist_ok=True)
     fd = os.open(state_dir / LOCK_NAME, os.O_RDWR | os.O_CREAT, 0o644)
-    try:
-        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except BlockingIOError:
-        os.close(fd)
-        return None
-    return fd
+    deadline = time.monotonic() + grace_s
+    while True:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            return fd
+        except BlockingIOError:
+            if time.monotonic() >= deadline:
+                os.close(fd)
+                return None
+            time.sleep(0.1)
 
 
 def remove_stale_locks(state_dir: Path = STATE_DIR) -> list[Path]:
@@ -60,7 +72,7 @@ def main(argv: list[str] | None = None) -> int:
     if not argv:
         print("usage: python -m roboball.pipeline.runlock SNAKEMAKE [ARGS...]", file=sys.stderr)
         return 2
-    fd = acquire()
+    fd = acquire(grace_s=GRACE_S)
     if fd is None:
         print(f"roboball: error: {STATE_DIR / LOCK_NAME}: another pipeline run is active in this folder; "
               "wait for it to finish or stop it", file=sys.stderr)
