@@ -33,6 +33,7 @@ from roboball.physics import effects as fx
 from roboball.sim.coupled import model_spec
 from roboball.sim.forces import SYM, GeneralizedTerm
 from roboball.diagnose.coupled import COORDS, Repeat, _tau_int, fit_pressure, run
+from roboball.metrics import bic
 
 CANDIDATES = (("pipe", "linear_stiffness"), ("pipe", "viscous_damping"), ("pipe", "rolling_resistance"),
               ("pipe", "com_offset"), ("steer", "viscous_damping"), ("steer", "coulomb_friction"),
@@ -178,7 +179,7 @@ def screen(base, reps, masks, log=None) -> tuple[list, dict]:
     groups = _groups(reps, masks)
     inner = len(np.unique(groups)) > 1
     n_eff = _n_eff(r0)
-    bic0 = n_eff * math.log(r0 @ r0 / len(r0))
+    bic0 = bic(float(r0 @ r0), len(r0), 0, n_eff)
     rms0 = math.sqrt(r0 @ r0 / len(r0))
     table, best = {}, ((), rms0 if inner else bic0)
     for k in range(1, MAX_EFFECTS + 1):
@@ -186,14 +187,14 @@ def screen(base, reps, masks, log=None) -> tuple[list, dict]:
             J = np.column_stack([cols[c] for c in combo])
             step = _bounded_step(J, r0, combo)
             r1 = r0 + J @ step
-            bic = n_eff * math.log(r1 @ r1 / len(r1)) + k * math.log(n_eff)
-            row = {"rmse_linear": float(np.sqrt(r1 @ r1 / len(r1))), "delta_bic": float(bic - bic0),
+            b = bic(float(r1 @ r1), len(r1), k, n_eff)
+            row = {"rmse_linear": float(np.sqrt(r1 @ r1 / len(r1))), "delta_bic": float(b - bic0),
                    "step": step.tolist()}
             if inner:
                 row["rmse_inner_cv"] = _inner_cv(J, r0, groups, combo)
             table["+".join(key(*c) for c in combo)] = row
-            score = row["rmse_inner_cv"] if inner else bic
-            if score < best[1] and bic < bic0:
+            score = row["rmse_inner_cv"] if inner else b
+            if score < best[1] and b < bic0:
                 best = (combo, score)
     if log:
         log(f"screen: {len(table)} sets scored on {len(r0)} samples (n_eff {n_eff:.0f}); "
@@ -240,7 +241,7 @@ def refit(base, chosen: list, reps, masks, start: dict | None = None, max_nfev: 
     out.values = {c: float(v) for c, v in zip(chosen, x)}
     out.ci95 = {c: (float(v - 1.96 * s), float(v + 1.96 * s)) for c, v, s in zip(chosen, x, se)}
     out.rmse_train = float(np.sqrt(np.mean(r1 ** 2)))
-    out.delta_bic = float(n_eff * math.log((r1 @ r1) / (r0 @ r0)) + len(chosen) * math.log(n_eff))
+    out.delta_bic = float(bic(float(r1 @ r1), len(r1), len(chosen), n_eff) - bic(float(r0 @ r0), len(r0), 0, n_eff))
     return out
 
 
