@@ -5,6 +5,7 @@ not see), regimes.png (the residual by regime) and windows.png (the residual in 
 located windows)."""
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -52,7 +53,9 @@ def _overlay(d: Diagnosis, out: Path, drake_base, drake_aug) -> str:
             axr.set_ylabel(f"model - recording ({prep.unit})")
             ax.legend(fontsize=7, loc="best")
             axr.legend(fontsize=7, loc="best")
-    fig.suptitle(f"{prep.label}: {d.verdict}" + (f" (+ {', '.join(d.chosen)})" if d.chosen else ""), fontsize=10)
+    # wrapped to the figure's width: a long path and three effects ran off a one-column figure
+    title = f"{prep.label}: {d.verdict}" + (f" (+ {', '.join(d.chosen)})" if d.chosen else "")
+    fig.suptitle(textwrap.fill(title, width=int(75 * n)), fontsize=10)
     return _save(fig, out, "overlay.png")
 
 
