@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 import os
 from dataclasses import dataclass
-from functools import cached_property
+from functools import cached_property, lru_cache
 from pathlib import Path
 from typing import Any
 
@@ -22,6 +22,10 @@ REPO_DIR = PACKAGE_DIR.parent.parent
 CONFIG_DIR = Path(os.environ.get("ROBOBALL_CONFIG_DIR", REPO_DIR / "configs"))
 ROBOT_YAML = CONFIG_DIR / "robot.yaml"
 SCHEMA_DIR = CONFIG_DIR / "schema"
+
+# libyaml's loader reads the same YAML as the pure-Python SafeLoader about ten times faster; a
+# pipeline job reads robot.yaml and its schema once per Drake run (a ramp job: 17 times).
+_YAML_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 
 
 def _path_of_error(err) -> str:
@@ -56,7 +60,7 @@ def load_yaml(path: str | os.PathLike, schema: str | None = None) -> dict:
     except OSError as exc:
         raise ConfigError(f"{path}: cannot read ({exc.strerror})")
     try:
-        data = yaml.safe_load(text)
+        data = yaml.load(text, Loader=_YAML_LOADER)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f"line {mark.line + 1}" if mark is not None else "?"
@@ -72,14 +76,17 @@ def load_yaml(path: str | os.PathLike, schema: str | None = None) -> dict:
     return data
 
 
+@lru_cache(maxsize=None)
+def _schema(name: str) -> dict:
+    with open(SCHEMA_DIR / name, encoding="utf-8") as fh:
+        return yaml.load(fh, Loader=_YAML_LOADER)
+
+
 def validate(data: dict, schema: str, source: str = "config") -> None:
     """Validate `data` against configs/schema/<schema>; one-line ConfigError on failure."""
     import jsonschema
 
-    schema_path = SCHEMA_DIR / schema
-    with open(schema_path, encoding="utf-8") as fh:
-        sch = yaml.safe_load(fh)
-    validator = jsonschema.Draft202012Validator(sch)
+    validator = jsonschema.Draft202012Validator(_schema(schema))
     errors = sorted(validator.iter_errors(data), key=lambda e: list(e.absolute_path))
     if errors:
         err = errors[0]
@@ -191,7 +198,22 @@ class RobotFacts:
 
 
 def load_robot(path: str | os.PathLike | None = None) -> RobotFacts:
-    """Load and validate the robot facts (default: configs/robot.yaml)."""
+    """Load and validate the robot facts (default: configs/robot.yaml).
+
+    The facts are read once per file version (path, size, modification time) and shared: a
+    ramp job builds 17 plants from them.  Callers that change the facts copy `data` first
+    (roboball.testbed.effects).
+    """
     path = Path(path) if path is not None else ROBOT_YAML
-    data = load_yaml(path, schema="robot.schema.yaml")
-    return RobotFacts(data, source=str(path))
+    try:
+        st = path.stat()
+    except OSError:
+        st = None
+    if st is None:
+        return RobotFacts(load_yaml(path, schema="robot.schema.yaml"), source=str(path))
+    return _load_robot(str(path), st.st_mtime_ns, st.st_size)
+
+
+@lru_cache(maxsize=8)
+def _load_robot(path: str, mtime_ns: int, size: int) -> RobotFacts:
+    return RobotFacts(load_yaml(path, schema="robot.schema.yaml"), source=path)
