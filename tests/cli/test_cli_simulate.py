@@ -72,3 +72,26 @@ def test_every_simulate_option_says_its_unit_and_default():
     for dest, unit in (("pressure_kpa", "kPa"), ("omega_n", "rad/s"), ("release", "rad"), ("duration", "(s;"),
                        ("dt", "(s,"), ("sample_rate_hz", "Hz"), ("hydro_modulus", "Pa"), ("hydro_dissipation", "s/m")):
         assert unit in units[dest], dest
+
+
+def test_hydro_tuned_takes_the_calibrated_modulus_and_dissipation_and_says_so(tmp_path):
+    """`--contact hydro_tuned` is Drake's hydroelastic contact with the calibration's numbers at the
+    pressure (log-interpolated), the same law as the pipeline's hydro_tuned runs."""
+    fit = tmp_path / "hydro_tuned.csv"
+    fit.write_text("pressure_kpa,hydro_modulus_pa,hydro_dissipation_s_m\n10.0,1.0e5,0.5\n20.0,4.0e5,2.0\n")
+    out = tmp_path / "rock.csv"
+    r = subprocess.run(ROBOBALL + ["simulate", "shell_rock", "--contact", "hydro_tuned", "--pressure-kpa", "15",
+                                   "--hydro-fit", str(fit), "--release", "0.1", "--duration", "0.2", "--out", str(out)],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert f"modulus 2e+05 Pa, dissipation 1 s/m (from the pipeline's calibration, {fit})" in r.stdout
+    sim = read_recording(out).meta["simulation"]
+    assert sim["contact"] == "hydro_tuned"
+    assert sim["hydro_modulus_pa"] == pytest.approx(2e5) and sim["hydro_dissipation_s_m"] == pytest.approx(1.0)
+    for extra, needle in ((["--hydro-fit", str(tmp_path / "none.csv")], "--hydro-modulus"),
+                          (["--hydro-fit", str(fit), "--pressure-kpa", "25"], "outside the calibrated 10-20 kPa")):
+        r = subprocess.run(ROBOBALL + ["simulate", "shell_rock", "--contact", "hydro_tuned", "--pressure-kpa", "15",
+                                       *extra, "--out", str(tmp_path / "x.csv")], capture_output=True, text=True)
+        lines = [l for l in r.stderr.strip().splitlines() if "WARNING" not in l]
+        assert r.returncode != 0 and len(lines) == 1 and needle in lines[0], r.stderr
+        assert not (tmp_path / "x.csv").exists()

@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 
 from roboball.errors import RoboballError
-from roboball.kinds import SIMULATED
+from roboball.kinds import CONTACT_MODELS, SIMULATED
 
 FRICTION_CHOICES = ("none", "viscous", "coulomb_viscous", "majd")
 
@@ -69,6 +69,33 @@ def _shell_from_regression(args) -> None:
           f"(from the pipeline's regression, {args.regression})")
 
 
+def _shell_from_calibration(args) -> None:
+    """For `--contact hydro_tuned`: Drake's hydroelastic contact with the modulus and dissipation
+    of the pipeline's calibration (Fig. S3) at the pressure, each unless given; a one-line error
+    naming the flags when there is no calibration to take them from."""
+    if args.contact != "hydro_tuned":
+        return
+    if args.pressure_kpa is None:
+        raise RoboballError("contact 'hydro_tuned' needs --pressure-kpa (the calibration is per pressure, kPa)")
+    if args.hydro_modulus is None or args.hydro_dissipation is None:
+        if not args.hydro_fit.is_file():
+            raise RoboballError(f"contact 'hydro_tuned' needs the calibrated --hydro-modulus and --hydro-dissipation at "
+                                f"{args.pressure_kpa:g} kPa: give them, or run `make figures` to write {args.hydro_fit} "
+                                f"(or point --hydro-fit at it)")
+        from roboball.pipeline.simulation import tuned_at
+
+        try:
+            modulus, dissipation = tuned_at(str(args.hydro_fit), args.pressure_kpa)
+        except (KeyError, ValueError) as exc:
+            raise RoboballError(f"{args.hydro_fit}: not a hydroelastic calibration table (columns pressure_kpa, "
+                                f"hydro_modulus_pa, hydro_dissipation_s_m): {exc}") from None
+        args.hydro_modulus = args.hydro_modulus if args.hydro_modulus is not None else modulus
+        args.hydro_dissipation = args.hydro_dissipation if args.hydro_dissipation is not None else dissipation
+        print(f"tuned hydroelastic shell at {args.pressure_kpa:g} kPa: modulus {args.hydro_modulus:.4g} Pa, "
+              f"dissipation {args.hydro_dissipation:.4g} s/m (from the pipeline's calibration, {args.hydro_fit})")
+    args.contact = "hydroelastic"    # Drake's contact; the calibration only chose its two numbers
+
+
 def cmd_simulate(args) -> int:
     from roboball.checks import load_checked_robot
     from roboball.config import ROBOT_YAML
@@ -90,13 +117,15 @@ def cmd_simulate(args) -> int:
         raise RoboballError(f"--sample-rate-hz {args.sample_rate_hz:g}: faster than the time step ({1 / args.dt:g} Hz "
                             f"at --dt {args.dt:g}); lower the rate or the step")
     robot = load_checked_robot(ROBOT_YAML)   # schema + physics, before anything runs
+    model = args.contact
+    _shell_from_calibration(args)
     _shell_from_regression(args)
     shell = ShellParams(zeta=args.zeta, omega_n=args.omega_n, hydro_modulus=args.hydro_modulus,
                         hydro_dissipation=args.hydro_dissipation)
     friction = {"steer": args.friction_steer or args.friction, "drive": args.friction_drive or args.friction}
     spec = SimSpec(kind=args.kind, contact=args.contact, friction=friction, pressure_kpa=args.pressure_kpa,
                    shell=shell, dt=args.dt, robot=robot)
-    print(f"simulating {args.duration:g} s of {args.kind} (contact {args.contact}, time step {args.dt:g} s) ...",
+    print(f"simulating {args.duration:g} s of {args.kind} (contact {model}, time step {args.dt:g} s) ...",
           flush=True)
     try:
         df = simulate(spec, args.release, args.duration, sample_rate_hz=args.sample_rate_hz,
@@ -104,12 +133,13 @@ def cmd_simulate(args) -> int:
     except ValueError as exc:
         raise RoboballError(str(exc))
     meta = {"kind": args.kind, "pressure_kpa": args.pressure_kpa, "source": "simulation",
-            "simulation": {"contact": args.contact, "friction": friction, "dt_s": args.dt,
-                           "release": args.release, "zeta": args.zeta, "omega_n_rad_s": args.omega_n}}
+            "simulation": {"contact": model, "friction": friction, "dt_s": args.dt,
+                           "release": args.release, "zeta": args.zeta, "omega_n_rad_s": args.omega_n,
+                           "hydro_modulus_pa": args.hydro_modulus, "hydro_dissipation_s_m": args.hydro_dissipation}}
     if args.kind == "ramp":
         meta["ramp_angle_deg"] = robot.ramp_angle_deg
     write_recording(args.out, df, meta)
-    print(f"wrote {args.out} ({len(df)} samples, {args.duration:g} s of {args.kind}, contact {args.contact})")
+    print(f"wrote {args.out} ({len(df)} samples, {args.duration:g} s of {args.kind}, contact {model})")
     return 0
 
 
@@ -141,8 +171,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser("simulate", help="simulate one experiment in Drake and write a recording")
     s.add_argument("kind", choices=SIMULATED, help="the experiment to simulate")
-    s.add_argument("--contact", choices=("point", "injected", "hydroelastic"), default="point",
-                   help="shell-ground contact model (default: point, the rigid shell)")
+    s.add_argument("--contact", choices=CONTACT_MODELS, default="point",
+                   help="shell-ground contact model: the paper's three, or hydro_tuned, Drake's hydroelastic contact "
+                        "with the calibrated modulus and dissipation (default: point, the rigid shell)")
     s.add_argument("--friction", choices=FRICTION_CHOICES, default="none",
                    help="friction law on both joints, Table I values (default: none)")
     s.add_argument("--friction-steer", choices=FRICTION_CHOICES, help="override the steer joint's law (default: --friction)")
@@ -160,6 +191,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="override eq. 10's hydroelastic modulus (Pa; default: eq. 10 at the pressure)")
     s.add_argument("--hydro-dissipation", type=_positive("--hydro-dissipation"), metavar="S_M",
                    help="override eq. 11's Hunt-Crossley dissipation (s/m; default: eq. 11 at the pressure)")
+    s.add_argument("--hydro-fit", type=Path, default=Path("results/identify/hydro_tuned.csv"), metavar="CSV",
+                   help="the pipeline's hydroelastic calibration, where hydro_tuned contact takes its modulus and "
+                        "dissipation from when not given (default: %(default)s)")
     s.add_argument("--release", type=_number("--release"), default=0.05, metavar="RAD",
                    help="initial angle of the main coordinate, released from rest (rad; default: %(default)s)")
     s.add_argument("--duration", type=_positive("--duration"), default=10.0, metavar="S",
