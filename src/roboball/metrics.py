@@ -70,6 +70,15 @@ def n_eff(n: int, rho: float) -> float:
     return max(n * (1.0 - rho) / (1.0 + rho), 10.0)
 
 
+def residual_tau_int(r: np.ndarray) -> float:
+    """Integrated autocorrelation time (samples) of a residual series, its autocorrelation summed
+    to the first zero crossing: how many samples one independent sample is worth."""
+    r = r - r.mean()
+    acf = np.correlate(r, r, "full")[len(r) - 1:] / (r @ r)
+    cut = np.argmax(acf < 0) or len(acf)
+    return float(max(1.0, 1.0 + 2.0 * acf[1:cut].sum()))
+
+
 def bic(rss: float, n: int, k: int, neff: float) -> float:
     """Bayesian information criterion of a least-squares fit (k parameters, n samples counted
     as `neff` independent ones)."""

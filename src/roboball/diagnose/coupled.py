@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from roboball.errors import RoboballError
+from roboball.metrics import residual_tau_int
 from roboball.sim.coupled import AUTHORS_NM, coupled_spec, model_spec, predict
 from roboball.sim.spec import ShellParams
 
@@ -110,14 +111,6 @@ def _spline_min(grid, values) -> tuple[float, np.ndarray, np.ndarray]:
     return float(fine[int(np.argmin(curve))]), fine, curve
 
 
-def _tau_int(r: np.ndarray) -> float:
-    """Integrated autocorrelation time (samples) of a residual, summed to its first zero crossing."""
-    r = r - r.mean()
-    acf = np.correlate(r, r, "full")[len(r) - 1:] / (r @ r)
-    cut = np.argmax(acf < 0) or len(acf)
-    return float(max(1.0, 1.0 + 2.0 * acf[1:cut].sum()))
-
-
 def fit_pressure(reps: list[Repeat], laws, friction: dict, grid=PRESSURE_GRID_KPA) -> PressureFit:
     """The pressure shared by `reps` (see the module docstring)."""
     grid = np.asarray(grid, dtype=float)
@@ -132,7 +125,7 @@ def fit_pressure(reps: list[Repeat], laws, friction: dict, grid=PRESSURE_GRID_KP
     n = sum(len(COORDS) * len(r.t) for r in reps)
     resid = resid_at[float(grid[int(np.argmin(np.abs(grid - p_best)))])]
     # the residual variance from the best grid run (the spline may dip below zero near a perfect fit)
-    s2 = float(table.sum(axis=1).min()) / max(n - 1, 1) * _tau_int(resid)
+    s2 = float(table.sum(axis=1).min()) / max(n - 1, 1) * residual_tau_int(resid)
     inside = fine[curve - curve.min() <= 3.84 * s2]
     folds = {}
     if len(reps) > 1:

@@ -32,8 +32,8 @@ import numpy as np
 from roboball.physics import effects as fx
 from roboball.sim.coupled import model_spec
 from roboball.sim.forces import SYM, GeneralizedTerm
-from roboball.diagnose.coupled import COORDS, Repeat, _tau_int, fit_pressure, run
-from roboball.metrics import bic
+from roboball.diagnose.coupled import COORDS, Repeat, fit_pressure, run
+from roboball.metrics import bic, residual_tau_int
 
 CANDIDATES = (("pipe", "linear_stiffness"), ("pipe", "viscous_damping"), ("pipe", "rolling_resistance"),
               ("pipe", "com_offset"), ("steer", "viscous_damping"), ("steer", "coulomb_friction"),
@@ -136,7 +136,7 @@ def predict_all(spec, reps: list[Repeat], names=None) -> dict:
 
 
 def _n_eff(r: np.ndarray) -> float:
-    return len(r) / _tau_int(r)
+    return len(r) / residual_tau_int(r)
 
 
 def _groups(reps, masks) -> np.ndarray:
@@ -231,7 +231,7 @@ def refit(base, chosen: list, reps, masks, start: dict | None = None, max_nfev: 
     res = least_squares(f, x0, bounds=(lo, hi), diff_step=0.05, max_nfev=max_nfev, x_scale=1.0)
     r1 = res.fun
     n_eff = _n_eff(r1)
-    s2 = float(r1 @ r1) / max(len(r1) - len(chosen), 1) * _tau_int(r1)
+    s2 = float(r1 @ r1) / max(len(r1) - len(chosen), 1) * residual_tau_int(r1)
     try:
         cov = np.linalg.inv(res.jac.T @ res.jac) * s2
         se = np.sqrt(np.clip(np.diag(cov), 0, None)) * typ
