@@ -50,6 +50,9 @@ def _heldout_note(d: Diagnosis, n_windows: int) -> str:
                "detected release)")
     else:
         how = f"{d.settings.n_blocks} contiguous time blocks, each predicted by a fit to the others"
+        if d.model.release_params:
+            how += (" (the first block, which holds the release, with the model fitted on the later ones and then "
+                    "only the release's state fitted on it, as a held-out release's)")
     if d.model.base_params:
         return f"Held out: {how}."
     if d.model.release_params:
