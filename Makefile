@@ -28,8 +28,9 @@ SNAKEMAKE_TARGETS ?=
 figures: $(STAMP)
 	$(BIN)/python -m roboball.pipeline.runlock $(BIN)/snakemake $(SNAKEMAKE_TARGETS) --cores $(CORES) --rerun-incomplete --rerun-triggers mtime input params code
 
-# The everyday suite (about 5 minutes on 2 cores); the slow end-to-end tests (whole pipeline,
-# whole campaign regeneration) run in CI after it (.ci/run) or with `make test-slow`.
+# The everyday suite (about 5 minutes on 2 cores); the slow tests (whole campaign regeneration,
+# kill-and-resume, the browser, the real logs' diagnoses and friction chains) run in CI after it
+# (.ci/run) or with `make test-slow`.
 test: $(STAMP)
 	$(BIN)/python -m pytest -q -m "not slow"
 

@@ -34,6 +34,7 @@ def _cli(args, capsys) -> tuple[int, str, str]:
     return code, out.out, out.err.strip()
 
 
+@pytest.mark.slow       # the real shell log's diagnosis (about 12 s); run by make test-slow and CI
 def test_trimmed_real_shell_log_is_diagnosed_from_its_first_sample(tmp_path, capsys):
     """`roboball diagnose` on the real shell log cut 3 samples after its let-go, kind from the
     flag: a diagnosis, its one release at the first sample; its window (from the first turning

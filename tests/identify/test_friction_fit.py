@@ -545,6 +545,7 @@ def real_fits(tmp_path_factory):
                  for law in fr["steer_laws"]}
 
 
+@pytest.mark.slow       # three chains on the real steer log (about 30 s); run by make test-slow and CI
 def test_every_real_posterior_converges(real_fits):
     """At least 50 autocorrelation times after burn-in for every law, Majd included (its chain
     stopped at 14 before the law was sampled by its stiction peak and the stand calibrated)."""
@@ -555,6 +556,7 @@ def test_every_real_posterior_converges(real_fits):
         assert not any("NOT CONVERGED" in n for n in res["notes"]), law
 
 
+@pytest.mark.slow       # shares the three real chains above
 def test_the_best_law_tracks_the_real_swings_in_drake(real_fits):
     """The recommended law (lowest BIC of a converged chain) fits the real log within 50 mrad
     RMS, in the reduced model and simulated in Drake on the calibrated stand as Fig. 7 draws it;
