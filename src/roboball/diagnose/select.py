@@ -97,10 +97,14 @@ class Selector(KeepRule, CrossValidation):
         self.folds = self._folds()
         self.log = log or (lambda msg: None)
         self.fits: dict = {}        # frozenset of effects -> the best fit of that model found (Scored)
+        # the baseline holds the sensor's parameters at their values (engine.sensor) while the
+        # models with effects fit them (roboball.diagnose.sensor_fit.run_with_sensor_lag)
+        self.baseline_holds_sensor = False
 
     # ---- problems -----------------------------------------------------------------------------
     def free_keys(self, effects, windows=None) -> list:
-        return ([b.name for b in self.model.base_params] + self.engine.sensor_free + effect_keys(effects)
+        sensor = [] if self.baseline_holds_sensor and not effects else self.engine.sensor_free
+        return ([b.name for b in self.model.base_params] + sensor + effect_keys(effects)
                 + self.engine.release_keys(windows))
 
     def full_problem(self, effects, values) -> Problem:
