@@ -160,3 +160,19 @@ def test_starting_grids_cover_both_signs_when_signed_and_stay_within_bounds():
     vals = k.grid_values()
     assert vals[:5] == pytest.approx(list(3.0 * np.geomspace(0.1, 10.0, 5)))
     assert vals[5:] == pytest.approx([max(-x, -1.0) for x in 3.0 * np.geomspace(0.1, 10.0, 5)])
+
+
+def test_a_grid_start_that_diverged_to_nan_is_never_the_best_start():
+    """A lagged simulation of a diverging start (a cubic stiffness of -70 N m/rad^3 on a lagged
+    steer recording) could come out as NaN; argmin picks a NaN, and the fit started there never
+    left it (real-like seed 6 steer_stand-03: the cubic stiffness concealed was never fitted)."""
+    from roboball.diagnose.fit import Engine
+    eng = Engine.__new__(Engine)
+    eng.windows = {0: SimpleNamespace(y=np.zeros(5))}
+    # the cost grows with |k3|; the most negative grid values diverged (NaN)
+    eng.predict = lambda items: [(np.full(5, np.nan) if v["cubic_stiffness.k3"] < -50 else
+                                  np.full(5, abs(v["cubic_stiffness.k3"])), None) for v, _ in items]
+    prob = SimpleNamespace(masks={0: np.ones(5, bool)})
+    (best,) = eng.best_starts([(prob, "cubic_stiffness", {})])
+    assert abs(best["cubic_stiffness.k3"]) == min(abs(x) for x in fx.LIBRARY["cubic_stiffness"].params[0].grid_values())
+    assert math.isfinite(best["_cost"])

@@ -165,6 +165,14 @@ class Engine:
         if lag is not None:             # as the lagging sensor reports it (roboball.diagnose.sensor)
             swinging = np.fromiter((self.windows[w].start == "turning point" for _, w in items), bool, B)
             Y, Yd = lag_grid(Y, Yd, dt, lag, swinging)
+            # a diverged run's huge values can come out of the filter as inf - inf = NaN; a NaN
+            # residual would compare false with every cost, and a grid start or a fit stuck on
+            # it never leaves it (a cubic stiffness started at -70 N m/rad^3 in a lagged fit)
+            bad = ~np.isfinite(Y)
+            if bad.any():
+                Y[bad] = DIVERGED
+                Yd[bad] = 0.0
+            Yd[~np.isfinite(Yd)] = 0.0
         self.sim_time += time.process_time() - t0
         self.n_sims += B
         out = [None] * B
@@ -404,6 +412,7 @@ class Engine:
                     w = used[i % len(used)]
                     m = prob.masks[w]
                     costs[i // len(used)] += float(np.sum((outs[start + i][0] - self.windows[w].y)[m] ** 2))
+            costs[~np.isfinite(costs)] = np.inf       # argmin would pick a NaN
             j = int(np.argmin(costs))
             best.append(dict(cands[j], _cost=float(costs[j])))
         return best

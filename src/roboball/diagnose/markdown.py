@@ -191,12 +191,15 @@ def _selection(d: Diagnosis) -> list:
              f"the same model without it, lowers the BIC by more than {s.bic_min:g}, lowers the held-out RMS by more "
              f"than {s.cv_gain:.0%}, lowers the held-out mean square by at least {s.material_noise:g} noise variances "
              "(materiality), and has 95% intervals of its magnitude (and of any parameter at whose zero it would "
-             "be a simpler effect) that exclude zero; the kept model of lowest BIC is the diagnosis. A round that "
-             "keeps nothing ends the search. In the tables the new effect is in bold and delta BIC is against "
+             "be a simpler effect) that exclude zero (the model without it at the best fit found, also refitted from "
+             "the larger model's values); the kept model of lowest BIC is the diagnosis, where it lowers the mean "
+             f"square of every kept model of fewer effects on another branch by at least {s.material_noise:g} noise "
+             "variances. A round that keeps nothing ends the search. In the tables the new effect is in bold and delta BIC is against "
              "the model it was grown from.", ""]
     for k, step in enumerate(d.steps, start=1):
         rows = [(_grown(i), _fmt(i["rmse"]), _fmt(i["cv_rmse"]), _fmt(i["delta_bic"], 5),
-                 "kept" if i.get("kept") else ("passes, higher BIC" if i.get("qualifies") else i.get("reason", "")))
+                 "kept" if i.get("kept") else (i["reason"] if str(i.get("reason", "")).startswith("passes the keep rule but")
+                                               else "passes, higher BIC" if i.get("qualifies") else i.get("reason", "")))
                 for i in step]
         lines += [f"Round {k}:", "", _md_table(rows, ["model", "RMS", "held-out RMS", "delta BIC", "decision"]), ""]
     return lines
