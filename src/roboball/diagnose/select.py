@@ -47,13 +47,13 @@ from roboball.diagnose.crossval import CrossValidation
 from roboball.diagnose.data import Prepared
 from roboball.diagnose.equivalents import bic_on, equivalents
 from roboball.diagnose.fit import Engine, Problem, effect_keys
-
-FIT_RTOL = 1e-3         # Engine.fit's relative stopping tolerance (its `rtol`)
 from roboball.diagnose.keep import KeepRule, immaterial
 from roboball.diagnose.scored import Scored, Settings
 from roboball.diagnose.sensor_fit import fit_sensor_lag, run_with_sensor_lag, without_stale
 from roboball.reduced.base import ReducedModel
 from roboball.reduced.models import model_for
+
+FIT_RTOL = 1e-3         # Engine.fit's relative stopping tolerance (its `rtol`)
 
 
 @dataclass
