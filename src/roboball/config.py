@@ -207,9 +207,7 @@ def load_robot(path: str | os.PathLike | None = None) -> RobotFacts:
     path = Path(path) if path is not None else ROBOT_YAML
     try:
         st = path.stat()
-    except OSError:
-        st = None
-    if st is None:
+    except OSError:     # load_yaml says what is wrong with the path, in one line
         return RobotFacts(load_yaml(path, schema="robot.schema.yaml"), source=str(path))
     return _load_robot(str(path), st.st_mtime_ns, st.st_size)
 

@@ -45,52 +45,51 @@ def _number(name):
     return conv
 
 
+def _fill_from_table(args, path: Path, path_flag: str, reader, dests: tuple, needs: str, table: str) -> None:
+    """Fill the flags `dests` that were not given with reader(path, pressure), the values at the
+    pressure from a table the pipeline writes (`make figures`); a one-line error naming the flags
+    (`needs`) when there is no table, naming its expected form (`table`) when it is not one."""
+    if not path.is_file():
+        raise RoboballError(f"contact '{args.contact}' needs {needs} at {args.pressure_kpa:g} kPa: give them, or run "
+                            f"`make figures` to write {path} (or point {path_flag} at it)")
+    try:
+        values = reader(str(path), args.pressure_kpa)
+    except (KeyError, ValueError) as exc:
+        raise RoboballError(f"{path}: not a {table}: {exc}") from None
+    for dest, value in zip(dests, values):
+        if getattr(args, dest) is None:
+            setattr(args, dest, value)
+
+
 def _shell_from_regression(args) -> None:
     """Fill in the shell's --zeta and --omega-n at the pressure from the pipeline's regression
-    (`make figures` writes it) when the contact model needs them and they were not given, and
-    say so; a one-line error naming the flags when there is no regression to take them from."""
+    when the contact model needs them and they were not given, and say so."""
     needs = args.contact in ("injected", "hydroelastic") and (args.zeta is None or args.omega_n is None) \
         and not (args.contact == "hydroelastic" and args.hydro_dissipation is not None)
     if not needs or args.pressure_kpa is None:
         return
-    if not args.regression.is_file():
-        raise RoboballError(f"contact '{args.contact}' needs the shell's --zeta and --omega-n at {args.pressure_kpa:g} kPa: "
-                            f"give them, or run `make figures` to write {args.regression} (or point --regression at it)")
     from roboball.pipeline.simulation import shell_at
 
-    try:
-        zeta, omega = shell_at(str(args.regression), args.pressure_kpa)
-    except (KeyError, ValueError) as exc:
-        raise RoboballError(f"{args.regression}: not a shell regression table (columns name, value; rows zeta_a, "
-                            f"zeta_b, omega_n_c, omega_n_d): {exc}") from None
-    args.zeta = args.zeta if args.zeta is not None else zeta
-    args.omega_n = args.omega_n if args.omega_n is not None else omega
+    _fill_from_table(args, args.regression, "--regression", shell_at, ("zeta", "omega_n"),
+                     "the shell's --zeta and --omega-n",
+                     "shell regression table (columns name, value; rows zeta_a, zeta_b, omega_n_c, omega_n_d)")
     print(f"shell at {args.pressure_kpa:g} kPa: zeta {args.zeta:.4g}, omega_n {args.omega_n:.4g} rad/s "
           f"(from the pipeline's regression, {args.regression})")
 
 
 def _shell_from_calibration(args) -> None:
     """For `--contact hydro_tuned`: Drake's hydroelastic contact with the modulus and dissipation
-    of the pipeline's calibration (Fig. S3) at the pressure, each unless given; a one-line error
-    naming the flags when there is no calibration to take them from."""
+    of the pipeline's calibration (Fig. S3) at the pressure, each unless given, and say so."""
     if args.contact != "hydro_tuned":
         return
     if args.pressure_kpa is None:
         raise RoboballError("contact 'hydro_tuned' needs --pressure-kpa (the calibration is per pressure, kPa)")
     if args.hydro_modulus is None or args.hydro_dissipation is None:
-        if not args.hydro_fit.is_file():
-            raise RoboballError(f"contact 'hydro_tuned' needs the calibrated --hydro-modulus and --hydro-dissipation at "
-                                f"{args.pressure_kpa:g} kPa: give them, or run `make figures` to write {args.hydro_fit} "
-                                f"(or point --hydro-fit at it)")
         from roboball.pipeline.simulation import tuned_at
 
-        try:
-            modulus, dissipation = tuned_at(str(args.hydro_fit), args.pressure_kpa)
-        except (KeyError, ValueError) as exc:
-            raise RoboballError(f"{args.hydro_fit}: not a hydroelastic calibration table (columns pressure_kpa, "
-                                f"hydro_modulus_pa, hydro_dissipation_s_m): {exc}") from None
-        args.hydro_modulus = args.hydro_modulus if args.hydro_modulus is not None else modulus
-        args.hydro_dissipation = args.hydro_dissipation if args.hydro_dissipation is not None else dissipation
+        _fill_from_table(args, args.hydro_fit, "--hydro-fit", tuned_at, ("hydro_modulus", "hydro_dissipation"),
+                         "the calibrated --hydro-modulus and --hydro-dissipation",
+                         "hydroelastic calibration table (columns pressure_kpa, hydro_modulus_pa, hydro_dissipation_s_m)")
         print(f"tuned hydroelastic shell at {args.pressure_kpa:g} kPa: modulus {args.hydro_modulus:.4g} Pa, "
               f"dissipation {args.hydro_dissipation:.4g} s/m (from the pipeline's calibration, {args.hydro_fit})")
     args.contact = "hydroelastic"    # Drake's contact; the calibration only chose its two numbers
