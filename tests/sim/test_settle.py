@@ -54,3 +54,22 @@ def test_the_stands_are_not_touched():
     set_release(built, ctx, 0.5)
     q = built.plant.GetPositions(built.plant.GetMyContextFromRoot(ctx))
     assert q[built.layout.joint_q["steer"]] == 0.5
+
+
+@pytest.mark.parametrize("kw", [{}, HYDRO])
+def test_runs_that_differ_only_in_joint_friction_share_one_settling_bit_for_bit(kw):
+    """A ramp run's posterior draws settle once (simulate's `settled`): each draw's run is the
+    run it would be settled on its own, and another scenario or start settles anew."""
+    draws = [{"steer": {"f_w": 0.2 * s, "f_c": 0.45 * s, "sigma": 10.0, "omega_c": 0.1, "n": 1.0},
+              "drive": {"f_w": 1.78 * s, "f_c": 1.24 * s, "sigma": 8.33, "omega_c": 1.36, "n": 1.6}}
+             for s in (1.0, 0.6, 1.5)]
+    settled = {}
+    for fp in draws:
+        spec = _spec("ramp", friction_params=fp, **kw)
+        alone = simulate(spec, 0.05, 0.3, sample_rate_hz=200.0)
+        shared = simulate(spec, 0.05, 0.3, sample_rate_hz=200.0, settled=settled)
+        assert alone.equals(shared)
+    assert len(settled) == 1
+    simulate(_spec("ramp", **kw), -0.05, 0.05, settled=settled)               # another start
+    simulate(_spec("ramp", **(kw | {"pressure_kpa": 6.9})), 0.05, 0.05, settled=settled)   # another shell
+    assert len(settled) == 3

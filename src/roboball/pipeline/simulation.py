@@ -147,12 +147,13 @@ def ramp_sim(recording: str, releases: str, regression: str, contact: str, out_c
                                         dissipation_scale=dissipation_scale, injected_steer=False,
                                         injected_drive=True)
     duration = float(tt[-1]) + 0.05
+    settled = {}    # the run and its friction draws start from the same settled pose
 
     def run(fp):
         spec = SimSpec(kind="ramp", contact=drake_contact, friction={"steer": "majd", "drive": "majd"},
                        friction_params={k: v for k, v in fp.items() if v}, pressure_kpa=p, shell=shell, dt=dt,
                        ramp_angle_deg=rec.meta.get("ramp_angle_deg"))
-        df = simulate(spec, pipe0, duration, sample_rate_hz=200.0)
+        df = simulate(spec, pipe0, duration, sample_rate_hz=200.0, settled=settled)
         return np.interp(tt, df.time_s.to_numpy(), df.drive_rate_rad_s.to_numpy())
 
     w_s = run(params)
