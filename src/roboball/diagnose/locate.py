@@ -30,9 +30,9 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.ndimage import maximum_filter1d
-from scipy.signal import savgol_filter
 
 from roboball.diagnose.data import Prepared
+from roboball.ingest.releases.signal import savgol_filter
 
 REGIMES = ("high_speed", "low_speed", "reversal", "large_amplitude", "small_amplitude", "near_stop",
            "rest_offset", "late_decay", "release", "ramp_exit")

@@ -7,10 +7,62 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.ndimage import median_filter
-from scipy.signal import savgol_filter
+from scipy.linalg import lstsq
+from scipy.ndimage import convolve1d, median_filter
 
-__all__ = ["PreparedSignal", "prepare_signal", "zigzag"]
+__all__ = ["PreparedSignal", "prepare_signal", "savgol_filter", "zigzag"]
+
+
+def savgol_filter(x, window_length: int, polyorder: int, deriv: int = 0, delta: float = 1.0) -> np.ndarray:
+    """SciPy's `scipy.signal.savgol_filter` of a 1-D signal in its default `mode="interp"`, the
+    same operations in the same order, so the same bits (tests/ingest/test_savgol.py).  Importing
+    `scipy.signal` costs about 0.7 s of CPU (its functions' docstrings are rewritten at import),
+    paid by every ingest and diagnosis job for this one filter."""
+    x = np.asarray(x, dtype=np.float64)
+    if not 0 <= polyorder < window_length <= x.shape[0] or window_length % 2 == 0:
+        raise ValueError(f"savgol_filter: need 0 <= polyorder < window_length <= len(x) and an odd "
+                         f"window (polyorder {polyorder}, window {window_length}, {x.shape[0]} samples)")
+    half = window_length // 2
+    # scipy.signal.savgol_coeffs(use="conv"): least squares on the reversed Vandermonde rows
+    t = np.flip(np.arange(-half, window_length - half, dtype=np.float64))
+    A = t ** np.arange(polyorder + 1, dtype=np.float64).reshape(-1, 1)
+    if deriv > polyorder:
+        coeffs = np.zeros(window_length)
+    else:
+        y = np.zeros(polyorder + 1)
+        y[deriv] = math.factorial(deriv) / (delta ** deriv)
+        coeffs = lstsq(A, y, cond=np.finfo(np.float64).eps * max(A.shape))[0]
+    out = convolve1d(x, coeffs, mode="constant")
+    # the ends: the polynomial fitted to the first and last windows (scipy's _fit_edges_polyfit)
+    n = x.shape[0]
+    for start, lo, hi in ((0, 0, half), (n - window_length, n - half, n)):
+        out[lo:hi] = _edge_values(x[start:start + window_length], polyorder, deriv, delta,
+                                  np.arange(lo - start, hi - start, dtype=np.float64))
+    return out
+
+
+def _edge_values(xe, polyorder, deriv, delta, at):
+    """scipy.signal._polyutils.polyfit (scaled Vandermonde, SciPy's lstsq), its derivative and
+    Horner's evaluation, as `savgol_filter` does at the ends."""
+    s = np.arange(0, xe.shape[0], dtype=np.float64)
+    powers = np.flip(np.arange(polyorder + 1, dtype=np.float64))
+    lhs = s[:, None] ** powers[None, :]
+    scale = np.sqrt(np.sum(lhs * lhs, axis=0))
+    lhs /= scale
+    c = lstsq(lhs, xe.reshape(-1, 1), cond=s.shape[0] * np.finfo(np.float64).eps)[0]
+    c = (c.T / scale).T
+    if deriv:
+        n = c.shape[0]
+        if n <= deriv:
+            c = np.zeros_like(c[:1])
+        else:
+            c = np.array(c[:-deriv], copy=True)
+            for k in range(deriv):
+                c *= np.arange(n - k - 1, deriv - k - 1, -1, dtype=c.dtype).reshape(n - deriv, 1)
+    v = np.zeros_like(at.reshape(-1, 1))
+    for j in range(c.shape[0]):
+        v = v * at.reshape(-1, 1) + c[j]
+    return (v / (delta ** deriv)).ravel()
 
 
 @dataclass
@@ -86,12 +138,12 @@ def prepare_signal(t, y, grid_dt: float | None = None) -> PreparedSignal:
     tu = tk[0] + grid_dt * np.arange(n)
     yu = np.interp(tu, tk, yk)
     win_s = _odd(0.06 / grid_dt, 5)
-    ys = savgol_filter(yu, win_s, 2, mode="interp") if n > win_s else yu.copy()
+    ys = savgol_filter(yu, win_s, 2) if n > win_s else yu.copy()
     # Noise: robust spread of the raw samples about a local cubic fit (0.1 s windows),
     # measured on the raw samples because interpolation onto the grid averages noise away.
     win_n = _odd(0.10 / grid_dt, 7)
     if n > win_n:
-        smooth = savgol_filter(yu, win_n, 3, mode="interp")
+        smooth = savgol_filter(yu, win_n, 3)
         resid = yk - np.interp(tk, tu, smooth)
         sigma = 1.4826 * float(np.median(np.abs(resid - np.median(resid))))
     else:
@@ -104,7 +156,7 @@ def prepare_signal(t, y, grid_dt: float | None = None) -> PreparedSignal:
     # least-squares slope over the window: sigma / (dt sqrt(sum k^2)).
     win_v = _odd(0.15 / grid_dt, 5)
     if n > win_v:
-        vs = savgol_filter(yu, win_v, 2, deriv=1, delta=grid_dt, mode="interp")
+        vs = savgol_filter(yu, win_v, 2, deriv=1, delta=grid_dt)
         vs = median_filter(vs, size=_odd(0.10 / grid_dt, 3), mode="nearest")
     else:
         vs = np.gradient(yu, grid_dt)
