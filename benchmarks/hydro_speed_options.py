@@ -32,7 +32,6 @@ import warnings
 from dataclasses import replace
 from pathlib import Path
 
-import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from conftest import fit_damped  # noqa: E402  (the damped-sine fit the physics tests use)

@@ -30,7 +30,7 @@ import statistics
 
 import numpy as np
 
-import diagnose_blind as blind
+import blind_cases
 
 LAG_S = (0.02, 0.06)            # s: the estimator's first-order lag
 ESTIMATOR_NOISE = 3e-5          # rad: the real dynamic log's noise
@@ -72,7 +72,7 @@ def _critical(kind: str) -> float:
 
 
 def _effects(group: str, kind: str, effects: tuple, rng: np.random.Generator) -> dict:
-    drawn = blind._magnitudes(kind, tuple(e for e in effects if e != "added_inertia"), rng) if effects else {}
+    drawn = blind_cases.magnitudes(kind, tuple(e for e in effects if e != "added_inertia"), rng) if effects else {}
     if "added_inertia" in effects:
         lo, hi = ADDED_INERTIA["delta_i"]
         drawn["added_inertia"] = {"delta_i": round(float(rng.uniform(lo, hi)), 4)}
@@ -97,10 +97,10 @@ def draw_cases(seed: int) -> list:
         case["lag_s"] = round(float(rng.uniform(*LAG_S)), 4) if sensor == "estimator" else 0.0
         if kind == "steer_stand":
             zeta = float(rng.uniform(*ZETA)) if group == "damped" else None
-            case["viscous_c"] = round(zeta * _critical(kind) if zeta else float(rng.uniform(*blind.BASE_VISCOUS)), 4)
+            case["viscous_c"] = round(zeta * _critical(kind) if zeta else float(rng.uniform(*blind_cases.BASE_VISCOUS)), 4)
         else:
-            case["pressure_kpa"] = float(rng.choice(blind.PRESSURES))
-        lo, hi = blind.RELEASES[kind] if releases == "three" else SINGLE[kind]
+            case["pressure_kpa"] = float(rng.choice(blind_cases.PRESSURES))
+        lo, hi = blind_cases.RELEASES[kind] if releases == "three" else SINGLE[kind]
         sign = -1.0 if rng.random() < 0.5 else 1.0
         case["releases"] = [round(sign * (-1) ** i * float(rng.uniform(lo, hi)), 4)
                             for i in range(3 if releases == "three" else 1)]
@@ -112,7 +112,7 @@ def draw_cases(seed: int) -> list:
 
 def noise_level(case: dict) -> float:
     """The noise level of the case's recorded main signal (what visibility is measured in)."""
-    return ESTIMATOR_NOISE if case["sensor"] == "estimator" else blind.noise_level(case["kind"])
+    return ESTIMATOR_NOISE if case["sensor"] == "estimator" else blind_cases.noise_level(case["kind"])
 
 
 def sense(dense, case: dict, rng):
@@ -136,7 +136,7 @@ def sense(dense, case: dict, rng):
 
 def report(results: list, wall_s: float, workers: int, seed: int) -> dict:
     """Print the real-like cases' scores, apart from the clean ones; returns them."""
-    s = blind.score(results)
+    s = blind_cases.score(results)
     by_id = {r["id"]: r for r in results}
     rows = s["rows"]
     for x in rows:

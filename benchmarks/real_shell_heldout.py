@@ -52,7 +52,7 @@ def main(argv=None) -> None:
     blocks = [held[w.index] for _, _, held in sel.folds]
     rest = float(np.mean(w.y[-50:]))
     sq = [float(np.sum((w.y[b] - rest) ** 2)) for b in blocks]
-    print(f"blocks (s from the turning point): "
+    print("blocks (s from the turning point): "
           + ", ".join(f"{w.t[b][0] - w.t0:.2f}-{w.t[b][-1] - w.t0:.2f}" for b in blocks)
           + "; share of the squared swing: " + ", ".join(f"{s / sum(sq):.2%}" for s in sq))
     new_folds = sel.folds

@@ -1,6 +1,5 @@
 """The blind benchmark's draw (benchmarks/diagnose_blind.py): every concealed effect shows."""
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -8,15 +7,16 @@ import pytest
 from conftest import REPO
 sys.path.insert(0, str(REPO / "benchmarks"))
 
+import blind_cases  # noqa: E402
 import diagnose_blind  # noqa: E402
 
 
 def test_draw_is_reproducible_and_spans_every_kind_and_set():
-    a, b = diagnose_blind.draw_cases(6), diagnose_blind.draw_cases(6)
+    a, b = blind_cases.draw_cases(6), blind_cases.draw_cases(6)
     assert a == b and len(a) >= 40
-    assert {c["kind"] for c in a} == set(diagnose_blind.SETS)
+    assert {c["kind"] for c in a} == set(blind_cases.SETS)
     assert sum(not c["effects"] for c in a) == 10
-    assert diagnose_blind.draw_cases(7) != a
+    assert blind_cases.draw_cases(7) != a
 
 
 def test_a_concealed_effect_below_the_noise_is_redrawn_and_no_other_case_changes():
@@ -24,28 +24,28 @@ def test_a_concealed_effect_below_the_noise_is_redrawn_and_no_other_case_changes
     the swings never come to rest in the recording, and the breakaway torque, acting only for an
     instant at each reversal, changes the recording by one noise level (0.6 mrad RMS); no method
     can find it.  The case is redrawn until every concealed effect shows by two noise levels."""
-    cases = diagnose_blind.draw_cases(6)
+    cases = blind_cases.draw_cases(6)
     case = next(c for c in cases if c["id"] == "steer_stand-13")
     vis = diagnose_blind.visibility(case)
-    assert vis["stiction"] < diagnose_blind.VISIBLE < vis["coulomb_friction"]
+    assert vis["stiction"] < blind_cases.VISIBLE < vis["coulomb_friction"]
     shown, (dense, meta, rng) = diagnose_blind.visible_draw(case)
     assert shown["rejected"][0]["effects"] == case["effects"]
     assert set(shown["effects"]) == set(case["effects"]) and shown["effects"] != case["effects"]
-    assert all(v >= diagnose_blind.VISIBLE for v in shown["visibility"].values())
+    assert all(v >= blind_cases.VISIBLE for v in shown["visibility"].values())
     assert shown["seed"] == case["seed"] and shown["releases"] == case["releases"]
-    assert diagnose_blind.draw_cases(6) == cases
-    lo, hi = diagnose_blind.WITH_STICTION["coulomb_friction"]["tau_c"]
+    assert blind_cases.draw_cases(6) == cases
+    lo, hi = blind_cases.WITH_STICTION["coulomb_friction"]["tau_c"]
     assert lo <= shown["effects"]["coulomb_friction"]["tau_c"] <= hi
-    lo, hi = diagnose_blind.RANGES["steer_stand"]["stiction"]["tau_s"]
+    lo, hi = blind_cases.RANGES["steer_stand"]["stiction"]["tau_s"]
     assert lo <= shown["effects"]["stiction"]["tau_s"] <= hi
     assert meta["kind"] == "steer_stand" and len(dense) > 1000
 
 
 def test_visibility_is_measured_on_the_signal_the_diagnosis_fits():
-    assert diagnose_blind.SIGNAL == {"steer_stand": "steer_angle_rad", "shell_rock": "pipe_angle_rad",
+    assert blind_cases.SIGNAL == {"steer_stand": "steer_angle_rad", "shell_rock": "pipe_angle_rad",
                                      "ramp": "drive_rate_rad_s"}
-    assert diagnose_blind.noise_level("steer_stand") == pytest.approx(4.9e-4, rel=0.02)
-    assert diagnose_blind.noise_level("ramp") == pytest.approx(0.015, rel=0.02)
+    assert blind_cases.noise_level("steer_stand") == pytest.approx(4.9e-4, rel=0.02)
+    assert blind_cases.noise_level("ramp") == pytest.approx(0.015, rel=0.02)
 
 
 # ---- the real-like cases (benchmarks/real_like.py, `--real-like`) ---------------------------------
@@ -53,10 +53,10 @@ import real_like  # noqa: E402
 
 
 def test_the_real_like_cases_are_drawn_apart_and_shaped_like_the_real_logs():
-    clean = diagnose_blind.draw_cases(6)
+    clean = blind_cases.draw_cases(6)
     cases = real_like.draw_cases(6)
     assert cases == real_like.draw_cases(6) and cases != real_like.draw_cases(7)
-    assert diagnose_blind.draw_cases(6) == clean and not any("sensor" in c for c in clean)
+    assert blind_cases.draw_cases(6) == clean and not any("sensor" in c for c in clean)
     assert {c["group"] for c in cases} == {"filtered", "damped", "trimmed", "slow stand"}
     assert sum(not c["effects"] for c in cases) >= 4
     assert any(not c["effects"] and c["sensor"] == "estimator" for c in cases)     # filtered nulls
@@ -83,7 +83,7 @@ def test_a_filtered_case_is_smooth_to_the_diagnosis_and_a_trimmed_one_starts_at_
     path = diagnose_blind._write(dense, meta, rng, tmp_path, trimmed)
     rec = read_recording(path)
     t, y = rec.time, rec.signal("steer_angle_rad")
-    assert t[0] == 0.0 and t[-1] < diagnose_blind.FREE_S
+    assert t[0] == 0.0 and t[-1] < blind_cases.FREE_S
     held = np.interp(dense.attrs["let_go_s"][0], dense.time_s, dense.steer_angle_rad)
     assert abs(y[0] - held) < 0.05 and abs(y[0] - held) > 0.0        # just after the let-go, moving
     assert sample_noise(t[fresh(y)], y[fresh(y)]) < SMOOTH_NOISE

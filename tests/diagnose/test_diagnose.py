@@ -4,7 +4,6 @@ the dry friction of the real steer stand, writes the contract's files, and refus
 Test recordings come from the virtual test bed (its own LuGre dry friction with true sticking,
 finer time step, sensor noise, quantisation and hand phases), which the diagnosis never sees."""
 import json
-import math
 from pathlib import Path
 
 import numpy as np
@@ -226,9 +225,10 @@ def test_undamped_shell_grabbed_mid_swing_and_held_between_its_extremes(tmp_path
     import sys
 
     sys.path.insert(0, str(REPO / "benchmarks"))
+    import blind_cases
     import diagnose_blind
 
-    case = next(c for c in diagnose_blind.draw_cases(7) if c["id"] == case_id)
+    case = next(c for c in blind_cases.draw_cases(7) if c["id"] == case_id)
     csv = diagnose_blind.make_recording(case, tmp_path)
     d, js = diagnose(str(csv), settings=FAST, drake=False)
     assert len(d.prep.windows) == 3
@@ -247,9 +247,10 @@ def test_a_stiffness_is_not_reported_as_backlash_without_free_play(tmp_path, cas
     import sys
 
     sys.path.insert(0, str(REPO / "benchmarks"))
+    import blind_cases
     import diagnose_blind
 
-    case = next(c for c in diagnose_blind.draw_cases(8) if c["id"] == case_id)
+    case = next(c for c in blind_cases.draw_cases(8) if c["id"] == case_id)
     csv = diagnose_blind.make_recording(case, tmp_path)
     d, js = diagnose(str(csv), settings=FAST, drake=False)
     assert sorted(m["effect"] for m in js["missing_physics"]) == found
@@ -271,9 +272,10 @@ def test_stiction_that_stops_the_swings_early_is_found(tmp_path, case_id):
     import sys
 
     sys.path.insert(0, str(REPO / "benchmarks"))
+    import blind_cases
     import diagnose_blind
 
-    case = next(c for c in diagnose_blind.draw_cases(8) if c["id"] == case_id)
+    case = next(c for c in blind_cases.draw_cases(8) if c["id"] == case_id)
     csv = diagnose_blind.make_recording(case, tmp_path)
     d, js = diagnose(str(csv), settings=FAST, drake=False)
     assert sorted(m["effect"] for m in js["missing_physics"]) == ["coulomb_friction", "stiction"]
