@@ -52,6 +52,11 @@ def run_once(parent: Path, keep: bool) -> dict:
             shutil.rmtree(clone, ignore_errors=True)
 
 
+def _min_s(seconds: float) -> str:
+    tenths = round(seconds * 10)
+    return f"{tenths // 600} min {tenths % 600 / 10:04.1f} s"
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--repeats", type=int, default=3)
@@ -68,7 +73,7 @@ def main(argv=None) -> int:
         r = run_once(REPO.parent, args.keep)
         runs.append(r)
         extra = sorted(set(r["changed"]) - WALL_TIME_FILES)
-        print(f"run {i + 1}: exit {r['rc']}, {r['wall_s'] / 60:.0f} min {r['wall_s'] % 60:04.1f} s "
+        print(f"run {i + 1}: exit {r['rc']}, {_min_s(r['wall_s'])} "
               f"(.venv {r['venv_s']:.0f} s), CPU {r['user_s']:.0f} s user + {r['sys_s']:.0f} s system, "
               f"peak RSS {r['max_rss_gb']:.2f} GB; paper_figures/: "
               + ("as committed but the wall-time cells" if not extra else f"DIFFERENT: {', '.join(extra)}"),
@@ -78,7 +83,7 @@ def main(argv=None) -> int:
         print("no run finished")
         return 1
     med = statistics.median(r["wall_s"] for r in ok)
-    print(f"median wall time: {med / 60:.0f} min {med % 60:04.1f} s over {len(ok)} run(s) "
+    print(f"median wall time: {_min_s(med)} over {len(ok)} run(s) "
           f"(target {TARGET_S / 60:.0f} min: {'met' if med <= TARGET_S else 'NOT met'})")
     same = all(not (set(r["changed"]) - WALL_TIME_FILES) for r in ok)
     print(f"paper_figures/ reproduced (but the wall-time cells) in every run: {'yes' if same else 'NO'}")
