@@ -140,8 +140,11 @@ def test_ramp_sim_posterior_band_is_the_95_percent_range_of_the_draws(tmp_path, 
     monkeypatch.setattr(roboball.ingest.recording, "read_recording", lambda path, *a, **k: rec)
     draws = []
 
-    def fake_simulate(spec, pipe0, duration, sample_rate_hz=200.0):
+    memos = []
+
+    def fake_simulate(spec, pipe0, duration, sample_rate_hz=200.0, settled=None):
         assert spec.kind == "ramp" and pipe0 == pytest.approx(0.2)
+        memos.append(settled)
         f_w = spec.friction_params["drive"]["f_w"]
         assert spec.friction_params["drive"]["n"] == 2.0 and spec.friction_params["steer"]["n"] == 2.0
         draws.append(100.0 * f_w)
@@ -164,6 +167,7 @@ def test_ramp_sim_posterior_band_is_the_95_percent_range_of_the_draws(tmp_path, 
                         posterior_draws=40, seed=1)
     row = pd.read_csv(out).iloc[0]
     assert len(draws) == 41 and draws[0] == pytest.approx(5.0)   # the median fit, then the draws
+    assert isinstance(memos[0], dict) and all(m is memos[0] for m in memos)   # one settling for all
     assert row.pme_percent == pytest.approx(5.0)
     d = np.array(draws[1:])
     assert np.ptp(d) > 20.0
