@@ -10,6 +10,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from roboball.diagnose.fit import Problem
+from roboball.diagnose.markdown import _round_decision
 from roboball.diagnose.scored import Scored, Settings
 from roboball.diagnose.select import Selector, mark_kept
 
@@ -206,6 +207,7 @@ def test_a_larger_model_must_beat_a_smaller_kept_one_materially(monkeypatch):
     bc = next(i for i in steps[1] if sorted(i["set"]) == ["b", "c"])
     assert bc["qualifies"] and not bc["kept"]
     assert bc["reason"].startswith("passes the keep rule but is not chosen over a: lowers its mean square by 2.73")
+    assert bc["sidelined"] and _round_decision(bc) == bc["reason"]      # the report says why, not "higher BIC"
     ac = next(i for i in steps[1] if sorted(i["set"]) == ["a", "c"])
     assert ac["failed"] == ["material"]
     # without the comparison with the smaller kept model, BIC alone chooses {b, c}

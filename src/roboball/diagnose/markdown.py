@@ -181,6 +181,15 @@ def _fit(d: Diagnosis, drake_stats) -> list:
             "", "![recording, baseline and augmented model in Drake](overlay.png)", ""]
 
 
+def _round_decision(i: dict) -> str:
+    """A grown model's decision in the round tables (select.Selector._round_info's entry)."""
+    if i.get("kept"):
+        return "kept"
+    if i.get("qualifies") and not i.get("sidelined"):
+        return "passes, higher BIC"
+    return i.get("reason", "")
+
+
 def _selection(d: Diagnosis) -> list:
     """The search and the keep rule as applied, and every round's grown models with their decisions."""
     s = d.settings
@@ -197,9 +206,7 @@ def _selection(d: Diagnosis) -> list:
              "variances. A round that keeps nothing ends the search. In the tables the new effect is in bold and delta BIC is against "
              "the model it was grown from.", ""]
     for k, step in enumerate(d.steps, start=1):
-        rows = [(_grown(i), _fmt(i["rmse"]), _fmt(i["cv_rmse"]), _fmt(i["delta_bic"], 5),
-                 "kept" if i.get("kept") else (i["reason"] if str(i.get("reason", "")).startswith("passes the keep rule but")
-                                               else "passes, higher BIC" if i.get("qualifies") else i.get("reason", "")))
+        rows = [(_grown(i), _fmt(i["rmse"]), _fmt(i["cv_rmse"]), _fmt(i["delta_bic"], 5), _round_decision(i))
                 for i in step]
         lines += [f"Round {k}:", "", _md_table(rows, ["model", "RMS", "held-out RMS", "delta BIC", "decision"]), ""]
     return lines

@@ -393,8 +393,8 @@ class Selector(KeepRule, CrossValidation):
                 info.update(qualifies=False, reason=why, failed=["screened"])
             else:
                 info.update(_decision(self, sc, parent, checks))
-                if id(sc) in sidelined:
-                    info["reason"] = sidelined[id(sc)]
+                if id(sc) in sidelined:     # passes the keep rule, not chosen over a smaller model
+                    info.update(reason=sidelined[id(sc)], sidelined=True)
             info["kept"] = False
             out.append(info)
         return out
