@@ -53,6 +53,7 @@ import numpy as np
 import real_like
 from blind_cases import FREE_S, SIGNAL, VISIBLE, confusion, draw_cases, magnitudes, noise_level, score
 
+
 def _dense(case: dict):
     """The test bed's noiseless 1 kHz signals of the case (before the sensors), its sidecar
     metadata, and the case's random stream where the sensors take it up."""
