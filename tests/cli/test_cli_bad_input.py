@@ -18,7 +18,6 @@ from pathlib import Path
 
 import pytest
 
-from conftest import BAD as READER_ERRORS
 from conftest import CORPUS, INGEST_ERRORS, REPO, SIDECAR_NAMED, one_error_line
 BIN = Path(sys.executable).parent
 ROBOBALL = str(BIN / "roboball")

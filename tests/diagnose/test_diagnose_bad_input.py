@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import CORPUS, INGEST_ERRORS, REPO, one_error_line
+from conftest import CORPUS, INGEST_ERRORS, one_error_line
 ROBOBALL = str(Path(sys.executable).parent / "roboball")
 CASES = ["empty", "misspelled_column", "nan_value", "time_backwards", "malformed_sidecar", "unknown_kind",
          "no_release"]

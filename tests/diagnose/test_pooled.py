@@ -6,7 +6,6 @@ time blocks; pooled runs let the held-out test leave a whole run out.  The pipel
 the paper's point model with the Majd friction fitted on the stand logs, and the diagnosed model
 must run on exactly that baseline."""
 import json
-from pathlib import Path
 
 import numpy as np
 import pandas as pd

@@ -4,7 +4,6 @@ log-decrement cross-checks, dry-friction signature, and the real logs."""
 from __future__ import annotations
 
 import math
-import os
 from pathlib import Path
 
 import numpy as np

@@ -3,7 +3,6 @@ synthetic native files."""
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 
 import numpy as np

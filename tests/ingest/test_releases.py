@@ -2,7 +2,6 @@
 recordings without a release, ramp starts."""
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np

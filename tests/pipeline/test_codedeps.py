@@ -2,7 +2,6 @@
 runs, or the robot facts it reads, change, and not for an edit elsewhere in the package."""
 import re
 import shutil
-from pathlib import Path
 
 import pytest
 

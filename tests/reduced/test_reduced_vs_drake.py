@@ -5,7 +5,6 @@ import pytest
 
 from roboball.diagnose.drake import effect_term
 from roboball.reduced.models import model_for
-from roboball.physics import effects as fx
 from roboball.metrics import pme
 from roboball.sim.scenarios import simulate
 from roboball.sim.spec import SimSpec

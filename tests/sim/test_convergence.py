@@ -2,7 +2,6 @@
 silently).  Tolerance: eq. 12's PME of a run against a reference at a quarter of its step within
 1%, the issue's criterion, for every contact model at the step the pipeline uses
 (configs/config.yaml ramp.dt_s) and for point contact at the 10 ms step its speed figure uses."""
-from pathlib import Path
 
 import pytest
 import yaml

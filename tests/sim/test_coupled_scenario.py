@@ -3,7 +3,7 @@ shell rocking on flat ground; the model list; the coarser step's equivalence."""
 import numpy as np
 import pytest
 
-from roboball.sim.coupled import AUTHORS_HAND, AUTHORS_NM, DT_S, MODEL_NAMES, MODELS, coupled_spec, model_spec, predict
+from roboball.sim.coupled import AUTHORS_HAND, AUTHORS_NM, DT_S, MODEL_NAMES, coupled_spec, model_spec, predict
 from roboball.sim.plant import build
 from roboball.sim.schedule import ShellLaws
 from roboball.sim.spec import ShellParams

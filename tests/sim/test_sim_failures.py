@@ -18,7 +18,7 @@ import pytest
 
 from roboball.errors import RoboballError, SimulationError
 from roboball.sim.scenarios import simulate
-from roboball.sim.spec import ShellParams, SimSpec
+from roboball.sim.spec import SimSpec
 from conftest import one_error_line
 
 ROBOBALL = str(Path(sys.executable).parent / "roboball")

@@ -5,7 +5,6 @@ test bed itself, the tests and the benchmarks (which play the experimenter) may.
 import ast
 import subprocess
 import sys
-from pathlib import Path
 
 from conftest import REPO
 

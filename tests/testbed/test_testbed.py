@@ -1,6 +1,5 @@
 """The virtual test bed holds physics the models lack, and regenerates bit-for-bit."""
 import hashlib
-from pathlib import Path
 
 import numpy as np
 import pandas as pd

@@ -98,7 +98,6 @@ def _shell_from_calibration(args) -> None:
 def cmd_simulate(args) -> int:
     from roboball.checks import load_checked_robot
     from roboball.config import ROBOT_YAML
-    from roboball.physics import shell as shell_laws
     from roboball.ingest.recording import write_recording
     from roboball.sim.scenarios import simulate
     from roboball.sim.spec import ShellParams, SimSpec

@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import argparse
 import inspect
-import sys
 
 from roboball.cli.main import OneLineArgumentParser, register_command
 from roboball.pipeline.codedeps import STAGE_MODULES   # one list: the CLI's search order and the rules' fingerprints

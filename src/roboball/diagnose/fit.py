@@ -226,7 +226,6 @@ class Engine:
 
     def _assemble(self, prob: Problem, values, outs, base, plan, steps, used):
         cols = {k: j for j, k in enumerate(prob.free)}
-        rows = []
         offsets = {}
         n = 0
         for w in used:

@@ -2,7 +2,6 @@
 in the file name.  Every figure is written as PNG and PDF (atomically)."""
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -34,7 +33,6 @@ def fig10(points: str, regression: str, sims: str, out_png: str, robot_yaml: str
     eq. 5 (dashed), and each contact model's simulated values.  `campaign` names where the
     recordings come from (config `campaign`), in the title."""
     from roboball.config import load_robot
-    from roboball.physics import shell as sl
     from roboball.identify.shell.regress import fit_regressions
 
     robot = load_robot(robot_yaml or None)

@@ -8,7 +8,6 @@ hydroelastic shell gets new contact properties every `hydro_update_s` (Drake all
 """
 from __future__ import annotations
 
-import numpy as np
 import pandas as pd
 
 from roboball.atomic import write_csv_atomic

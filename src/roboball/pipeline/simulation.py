@@ -9,8 +9,7 @@ import zlib
 import numpy as np
 import pandas as pd
 
-from roboball.atomic import write_csv_atomic, write_json_atomic
-from roboball.config import load_robot
+from roboball.atomic import write_csv_atomic
 from roboball.errors import RoboballError
 from roboball.metrics import pme, speed_errors
 from roboball.physics import shell as shell_laws
