@@ -2,7 +2,6 @@
 objective, the shared pressure, the effects per coordinate, the CLI on a native log, and the
 committed Fig. S2 table's held-out claim."""
 import json
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -98,6 +97,40 @@ def test_read_repeats_refuses_a_log_without_the_steer_angle_in_one_line(tmp_path
     with pytest.raises(RoboballError) as info:
         read_repeats([path])
     assert "\n" not in str(info.value) and str(path) in str(info.value)
+
+
+def _verdict_case(rmse_base, rmse_after, effects, noise_amp, rho_kind):
+    """Two coordinates of one repeat, a baseline whose residual is smooth (rho_kind 'smooth') or
+    white ('white'), and a fit summary as `fit_chosen` returns it."""
+    from types import SimpleNamespace
+    rng = np.random.default_rng(3)
+    t = np.arange(0.0, 3.0, 0.02)
+    pipe = 0.3 * np.cos(3 * t) + noise_amp * rng.standard_normal(t.size)
+    steer = 0.3 * np.sin(3 * t) + noise_amp * rng.standard_normal(t.size)
+    rep = Repeat("r", t, pipe, steer)
+    err = rmse_base * (np.sin(0.7 * t) * np.sqrt(2) if rho_kind == "smooth" else rng.standard_normal(t.size))
+    pred = {"r": {"pipe_angle_rad": pipe + err, "steer_angle_rad": steer + err}}
+    fit = SimpleNamespace(values=effects, rmse_train=rmse_after, rmse_base_train=rmse_base)
+    return fit, pred, [rep], {"r": np.ones(t.size, bool)}
+
+
+@pytest.mark.parametrize("rmse_after,effects,expected", [
+    (0.009, {("pipe", "com_offset"): 0.1}, "augmented"),      # a tenth of the baseline's 0.1 rad
+    (0.075, {("pipe", "com_offset"): 0.1}, "unexplained"),    # the real 165825 log: 0.107 -> 0.075
+    (0.1, {}, "unexplained"),                                   # nothing found, a smooth residual remains
+])
+def test_the_coupled_verdict_follows_the_rule_of_the_other_kinds(rmse_after, effects, expected):
+    from roboball.diagnose.coupled_report import recorded_noise, verdict
+    fit, pred, reps, masks = _verdict_case(0.1, rmse_after, effects, 1e-3, "smooth")
+    noise = recorded_noise(reps, masks)
+    assert 0.5e-3 < noise < 2e-3
+    assert verdict(fit, pred, reps, masks, noise) == expected
+
+
+def test_a_coupled_baseline_with_a_white_residual_at_the_noise_is_adequate():
+    from roboball.diagnose.coupled_report import recorded_noise, verdict
+    fit, pred, reps, masks = _verdict_case(2e-3, 2e-3, {}, 1e-3, "white")
+    assert verdict(fit, pred, reps, masks, recorded_noise(reps, masks)) == "adequate"
 
 
 # ---- the real repeats ------------------------------------------------------------------------

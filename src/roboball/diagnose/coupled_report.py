@@ -22,6 +22,9 @@ from roboball.physics import effects as fx
 from roboball.diagnose.coupled import COORDS, fit_pressure, read_repeats
 from roboball.diagnose.coupled_effects import (baseline_spec, effect_spec, fit_chosen, folds_of, held_out, key,
                                                predict_all, rms_by_coord, screen, truncated)
+from roboball.diagnose.scored import Settings
+from roboball.diagnose.sensor_fit import sample_noise
+from roboball.metrics import lag1
 
 # Where the baseline's residual is located: thirds of each recording's span.
 REGIMES = ("large_amplitude", "small_amplitude", "late_decay")
@@ -48,6 +51,28 @@ def located(preds: dict, reps, masks) -> list:
     for row in rows:
         row["share_of_residual"] = row.pop("sq") / total if total > 0 else 0.0
     return sorted(rows, key=lambda r: -r["share_of_residual"])
+
+
+def recorded_noise(reps, masks) -> float:
+    """The recordings' noise level over both coordinates (rad): per coordinate the median over
+    the repeats of `sample_noise` on the fitted samples, pooled as the fit's RMS pools them."""
+    per = [np.median([sample_noise(r.t[masks[r.name]], r.coord(c)[masks[r.name]]) for r in reps if r.name in masks])
+           for c in COORDS]
+    return float(np.sqrt(np.mean(np.square(per))))
+
+
+def verdict(fit, pred_base, reps, masks, noise: float, s: Settings = Settings()) -> str:
+    """The contract's verdict by the rule of the other kinds (roboball.diagnose.select): with
+    effects, `augmented` only when the fitted residual is within `explained_factor` noise levels
+    or a tenth of the baseline's, else `unexplained`; without, `unexplained` when the baseline's
+    residual is structured (lag-1 autocorrelation >= 0.5 and above the noise), else `adequate`."""
+    if fit.values:
+        explained = fit.rmse_train <= max(s.explained_factor * noise, s.explained_ratio * fit.rmse_base_train)
+        return "augmented" if explained else "unexplained"
+    res = {(r.name, c): pred_base[r.name][c][masks[r.name]] - r.coord(c)[masks[r.name]]
+           for r in reps if r.name in masks for c in COORDS}
+    structured = lag1(res) >= 0.5 and fit.rmse_base_train > s.explained_factor * noise
+    return "unexplained" if structured else "adequate"
 
 
 def _alternatives(table: dict, chosen: list, n: int = 3) -> list:
@@ -100,6 +125,7 @@ def diagnose_coupled(paths, out_dir, regression, friction_steer, log=None) -> di
     chosen, fit, dropped = fit_chosen(base, chosen, reps, train)
     final = effect_spec(base, fit.values)
     pred_base, pred_aug = predict_all(base, reps), predict_all(final, reps)
+    noise = recorded_noise(reps, train)
     if len(reps) > 1:
         heldout = held_out(reps, laws, friction, pressure, log=log)
     else:   # one recording: its one fold is the fit above (trained on the first two thirds)
@@ -114,8 +140,10 @@ def diagnose_coupled(paths, out_dir, regression, friction_steer, log=None) -> di
                                     "(eq. 6-9) at the fitted pressure, pendulum free, drive held, flat ground",
                      "fitted": {"pressure_kpa": pressure.p_kpa, "pressure_ci95_kpa": list(pressure.ci95_kpa)},
                      "friction_steer": friction},
-        "verdict": "augmented" if fit.values else "adequate",
+        "verdict": verdict(fit, pred_base, reps, train, noise),
         "located": located(pred_base, reps, train),
+        "located_augmented": located(pred_aug, reps, train),
+        "noise_rad": noise,
         "missing_physics": _missing(fit, _alternatives(table, chosen)),
         "fit": {"rmse_before": fit.rmse_base_train, "rmse_after": fit.rmse_train,
                 "rmse_heldout_before": float(np.sqrt(np.mean([v ** 2 for v in _pooled(heldout, "rmse_heldout_before").values()]))),
@@ -172,7 +200,7 @@ def _overlay(reps, base, aug, path) -> None:
 
 
 def report_md(js: dict) -> str:
-    f, pc = js["fit"], js["fit"]["per_coordinate"]
+    pc = js["fit"]["per_coordinate"]
     lines = [f"# Diagnosis: steer_coupled ({js['verdict']})", "", js["baseline"]["description"] + ".",
              f"Fitted pressure {js['baseline']['fitted']['pressure_kpa']:.1f} kPa "
              f"(95 % {js['baseline']['fitted']['pressure_ci95_kpa'][0]:.1f}-{js['baseline']['fitted']['pressure_ci95_kpa'][1]:.1f}).",
@@ -180,6 +208,14 @@ def report_md(js: dict) -> str:
     for c in COORDS:
         lines.append(f"| {c} | {pc['before'][c]:.4f} | {pc['after'][c]:.4f} | {pc['heldout_before'][c]:.4f} | "
                      f"{pc['heldout_after'][c]:.4f} |")
+    lines += ["", f"Noise level of the recordings: {js['noise_rad']:.2g} rad. The verdict is `augmented` when the "
+              "augmented model's fitted residual is within 3 noise levels or a tenth of the baseline's, "
+              "`unexplained` when a larger residual remains."]
+    if js["verdict"] == "unexplained":
+        top = [w for w in js["located_augmented"] if w["share_of_residual"] >= 0.1][:3]
+        lines += ["", "Where the residual remains (augmented model): " + "; ".join(
+            f"{w['signal']} {w['start_s']:.2f}-{w['end_s']:.2f} s ({w['regime']}, {100 * w['share_of_residual']:.0f}%)"
+            for w in top) + "."]
     lines += ["", "## Missing physics", ""]
     for m in js["missing_physics"] or [{"effect": "none"}]:
         if m["effect"] == "none":
