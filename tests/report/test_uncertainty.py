@@ -121,3 +121,18 @@ def test_table_page_renders_the_markdown_table(tmp_path):
     page = out.read_text()
     assert "<title>Hydroelastic sensitivity sweep (section III-D)</title>" in page
     assert "<td>modulus x0.5</td><td class='num'>30.2</td>" in page and "|" not in page.split("<body>")[1]
+
+
+def test_the_report_is_the_same_bytes_whatever_the_fits_wall_times(tmp_path):
+    """The report is committed in paper_figures/, which reproduces byte for byte: a fit's wall
+    time (different every run) is not in it."""
+    first = _report(tmp_path)
+    for name in ("cv.json", "majd.json"):
+        d = json.loads((tmp_path / name).read_text())
+        d["timing"]["wall_s"] = 97.5
+        (tmp_path / name).write_text(json.dumps(d))
+    fits = [str(tmp_path / "cv.json"), str(tmp_path / "majd.json")]
+    out = tmp_path / "again.html"
+    uncertainty_report(fits, [str(tmp_path / "steer_comparison.csv")], str(tmp_path / "reg.csv"), str(tmp_path / "pme.csv"),
+                       str(tmp_path / "sweep.md"), [], str(out), ramp_friction=[])
+    assert out.read_text() == first

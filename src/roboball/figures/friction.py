@@ -152,11 +152,9 @@ def _table1_rows(fits: list, robot) -> tuple[pd.DataFrame, list, list]:
                          "unit": friction.UNITS.get(name, ""), "paper_table1": paper.get(name, float("nan")),
                          "source": f.recording, "converged": converged, "held": True})
         if c:
-            wall = (f.timing or {}).get("wall_s")
             chains.append(f"| {f.recording} | {f.joint} | {f.law} | {c['steps']} | {c['burn_in']} | "
                           f"{c['max_tau']:.0f} | {c['chain_over_tau']:.1f} (needs {c['autocorr_multiple']:g}) | "
-                          f"{c['ess_min']:.0f} | {'yes' if c['converged'] else '**no**'} | "
-                          f"{f'{wall:.0f}' if wall is not None else '-'} |")
+                          f"{c['ess_min']:.0f} | {'yes' if c['converged'] else '**no**'} |")
         st = f.stand()
         if st:
             shifts = ", ".join(f"{x:+.3f}" for x in (f.release_shift_medians() or [])) or "-"
@@ -195,10 +193,11 @@ CHAINS_HEAD = [
     "`friction.max_steps` first is marked **no**: a chain that has not mixed underestimates its "
     "own tau, so its ESS is optimistic and its intervals may be narrower than the posterior's "
     "(read them as lower bounds on the uncertainty); the model comparison never recommends it. "
-    "ESS: effective sample size of the slowest parameter. Wall: the whole fit (least squares and "
-    "chain), seconds.", "",
-    "| recording | joint | law | steps | burn-in | slowest tau (steps) | chain / tau | min ESS | converged | wall (s) |",
-    "|---|---|---|---|---|---|---|---|---|---|"]
+    "ESS: effective sample size of the slowest parameter. A fit's wall time is not given here, so that "
+    "the table reproduces byte for byte: each fit's JSON holds it (`timing.wall_s`) and "
+    "`benchmarks/friction_speed.py` measures it.", "",
+    "| recording | joint | law | steps | burn-in | slowest tau (steps) | chain / tau | min ESS | converged |",
+    "|---|---|---|---|---|---|---|---|---|"]
 
 CALIBRATION_HEAD = [
     "", "## Stand calibration (posterior median [95% interval])", "",
