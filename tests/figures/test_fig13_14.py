@@ -121,3 +121,13 @@ def test_fig14_mean_labels_sit_above_their_runs_and_whiskers(tmp_path, monkeypat
             if col == "pme_percent" and runs.pme_draw_high.notna().any():
                 top = max(top, runs.pme_draw_high.mean())
             assert lab.xy[0] == i and lab.xy[1] >= top - 1e-9, (col, contact, lab.xy, top)
+
+
+def test_the_pme_table_says_which_hydroelastic_variant_its_key_names(tmp_path):
+    """The table's `hydroelastic` is the sweep's carried-forward variant, as the figures' legend says."""
+    out = {k: str(tmp_path / f) for k, f in (("13", "fig13.png"), ("14", "fig14.png"), ("csv", "t.csv"), ("md", "t.md"))}
+    fig13_14(_summary(tmp_path / "s.csv"), out["13"], out["14"], out["csv"], out["md"], hydro_setting="dissipation x0.5")
+    md = (tmp_path / "t.md").read_text()
+    assert "Models as in Figs. 13/14: `hydroelastic`: hydroelastic (dissipation x0.5)." in md
+    fig13_14(_summary(tmp_path / "s.csv"), out["13"], out["14"], out["csv"], out["md"])
+    assert "Models as in" not in (tmp_path / "t.md").read_text()

@@ -241,12 +241,15 @@ def _fig14_absolute(ax_abs, s: pd.DataFrame, contacts: list, names: dict) -> Non
     ax_abs.set_title("the same samples, absolute: errors cannot cancel", fontsize=9)
 
 
-def _pme_markdown(s: pd.DataFrame, agg: pd.DataFrame, contacts: list, m: pd.Series) -> str:
-    """The PME table for people: per (contact, pressure), then per contact over all runs."""
+def _pme_markdown(s: pd.DataFrame, agg: pd.DataFrame, contacts: list, m: pd.Series, names: dict) -> str:
+    """The PME table for people: per (contact, pressure), then per contact over all runs;
+    `names` the figures' labels of the contacts, said where they add to the table's key."""
+    said = [f"`{c}`: {names[c].replace(chr(10), ' ')}" for c in contacts if names.get(c, c) != c]
     lines = ["# Drive-speed point mean error (eq. 12), percent; + = model faster than the robot", "",
               "Eq. 12 is a signed mean: a model that runs fast early and slow late can score near zero. "
               "`mean |error|` is the same mean over the same samples of the absolute relative error, and "
               "`RMSE` the RMS drive-rate error over the whole descent (rad/s); both are means over runs.", "",
+              *([f"Models as in Figs. 13/14: {'; '.join(said)}.", ""] if said else []),
               "| contact | pressure (kPa) | runs | mean PME | min | max | posterior 95% | mean \\|error\\| (%) | RMSE (rad/s) |",
               "|---|---|---|---|---|---|---|---|---|"]
     for r in agg.itertuples():
@@ -290,7 +293,7 @@ def fig13_14(summary: str, out13: str, out14: str, out_csv: str, out_md: str, ca
     _fig14_absolute(ax_abs, s, contacts, names)
     fig.suptitle(f"Fig. 14: averaged drive speed error{_of(campaign)}", fontsize=10)
     save(fig, out14)
-    write_text_atomic(out_md, _pme_markdown(s, agg, contacts, m))
+    write_text_atomic(out_md, _pme_markdown(s, agg, contacts, m, names))
 
 
 def table2(out_csv: str, out_md: str, robot_yaml: str = "") -> None:
