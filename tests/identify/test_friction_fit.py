@@ -467,7 +467,7 @@ def test_the_calibrated_stand_recovers_added_inertia_offset_and_release_instants
     segs = segments_from_arrays(synthetic_stand("viscous", {"c": 0.3}, seed=5, angles=(0.9, -0.8), duration=4.0,
                                                 **CALIBRATION))
     res, _ = fit_segments("steer_stand", "viscous", segs, tmp_path / "cal.h5", None, seed=1, walkers=20,
-                          autocorr_multiple=8, max_steps=600, chunk=50, min_steps=50)
+                          autocorr_multiple=8, max_steps=1200, chunk=50, min_steps=50)
     p = res["parameters"]
     assert res["stand_calibrated"] is True and res["convergence"]["converged"], res["notes"]
     for name, truth in (("delta_i", CALIBRATION["added_inertia"]), ("rest_offset", CALIBRATION["rest_offset"]),
