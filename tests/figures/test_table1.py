@@ -88,3 +88,31 @@ def test_table1_is_the_same_bytes_whatever_the_fits_wall_times(tmp_path):
     table1([b], str(tmp_path / "b.csv"), str(tmp_path / "b.md"))
     assert (tmp_path / "a.md").read_bytes() == (tmp_path / "b.md").read_bytes()
     assert (tmp_path / "a.csv").read_bytes() == (tmp_path / "b.csv").read_bytes()
+
+
+def test_corner_plot_labels_each_parameter_with_its_own_unit(tmp_path, monkeypatch):
+    """The stand's calibration in its units (delta_i kg m^2, rest_offset rad), the law's from
+    the friction table, the noise in rad: no parameter is labelled '(-)'."""
+    import corner
+    import numpy as np
+
+    from roboball.figures.friction import corner_plot
+
+    path = tmp_path / "fit.json"
+    _fit(path, "viscous", True, 8.0, stand=True)
+    d = json.loads(path.read_text())
+    cols = ["c", "delta_i", "rest_offset", "noise_rad"]
+    rng = np.random.default_rng(0)
+    pd.DataFrame(rng.normal(1.0, 0.1, (200, 4)), columns=cols).to_csv(tmp_path / "s.csv", index=False)
+    d["samples_csv"] = str(tmp_path / "s.csv")
+    path.write_text(json.dumps(d))
+    seen = {}
+    real = corner.corner
+
+    def spy(*a, **kw):
+        seen["labels"] = kw["labels"]
+        return real(*a, **kw)
+
+    monkeypatch.setattr(corner, "corner", spy)
+    corner_plot(str(path), str(tmp_path / "c.png"))
+    assert seen["labels"] == ["c (N m s/rad)", "delta_i (kg m^2)", "rest_offset (rad)", "noise_rad (rad)"]

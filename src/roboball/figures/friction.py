@@ -258,7 +258,10 @@ def corner_plot(fit: str, out_png: str) -> None:
 
     f = read_fit(fit)
     s = f.samples(20000)
-    labels = [f"{c} ({'rad' if c == 'noise_rad' else friction.UNITS.get(c, '-')})" for c in s.columns]
+    # the fit's own unit of each parameter (the stand's delta_i in kg m^2, rest_offset in rad)
+    units = {c: (f.parameters.get(c) or {}).get("unit") or ("rad" if c == "noise_rad" else friction.UNITS.get(c, "-"))
+             for c in s.columns}
+    labels = [f"{c} ({units[c]})" for c in s.columns]
     k = s.shape[1]
     # corner lays its K x K grid out with subplots_adjust, which a layout engine (the style's
     # constrained layout) would ignore: the figure gets none, and room at the top for the title
