@@ -62,17 +62,11 @@ def recorded_noise(reps, masks) -> float:
 
 
 def verdict(fit, pred_base, reps, masks, noise: float, s: Settings = Settings()) -> str:
-    """The contract's verdict by the rule of the other kinds (roboball.diagnose.select): with
-    effects, `augmented` only when the fitted residual is within `explained_factor` noise levels
-    or a tenth of the baseline's, else `unexplained`; without, `unexplained` when the baseline's
-    residual is structured (lag-1 autocorrelation >= 0.5 and above the noise), else `adequate`."""
-    if fit.values:
-        explained = fit.rmse_train <= max(s.explained_factor * noise, s.explained_ratio * fit.rmse_base_train)
-        return "augmented" if explained else "unexplained"
+    """The contract's verdict by the rule of the other kinds (`Settings.verdict`), on the fitted
+    samples of both coordinates."""
     res = {(r.name, c): pred_base[r.name][c][masks[r.name]] - r.coord(c)[masks[r.name]]
            for r in reps if r.name in masks for c in COORDS}
-    structured = lag1(res) >= 0.5 and fit.rmse_base_train > s.explained_factor * noise
-    return "unexplained" if structured else "adequate"
+    return s.verdict(bool(fit.values), fit.rmse_base_train, fit.rmse_train, lag1(res), noise)
 
 
 def _alternatives(table: dict, chosen: list, n: int = 3) -> list:

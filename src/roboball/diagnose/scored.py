@@ -9,6 +9,8 @@ from dataclasses import dataclass, field
 from roboball.diagnose.fit import Problem
 from roboball.reduced.base import DT
 
+STRUCTURED_RHO = 0.5      # a baseline residual this autocorrelated (lag 1) is structured, not noise
+
 
 @dataclass
 class Settings:
@@ -32,6 +34,18 @@ class Settings:
     explained_factor: float = 3.0
     explained_ratio: float = 0.1      # augmented: residual RMS within 3 noise levels or a tenth of the baseline's
     n_blocks: int = 3
+
+    def verdict(self, added: bool, rmse_base: float, rmse_final: float, rho1_base: float, noise: float) -> str:
+        """The contract's verdict.  With effects `added`: `augmented` when the final residual RMS is
+        within `explained_factor` noise levels or `explained_ratio` of the baseline's, else
+        `unexplained`.  Without: `unexplained` when the baseline's residual is structured (lag-1
+        autocorrelation >= :data:`STRUCTURED_RHO` and above `explained_factor` noise levels), else
+        `adequate`.  Shared by every kind (roboball.diagnose.select, .coupled_report)."""
+        if added:
+            explained = rmse_final <= max(self.explained_factor * noise, self.explained_ratio * rmse_base)
+            return "augmented" if explained else "unexplained"
+        structured = rho1_base >= STRUCTURED_RHO and rmse_base > self.explained_factor * noise
+        return "unexplained" if structured else "adequate"
 
 
 @dataclass

@@ -420,12 +420,7 @@ class Selector(KeepRule, CrossValidation):
                          timings=timings, folds=self.folds, drop_bic=drop, alternatives=alternatives)
 
     def verdict(self, base: Scored, final: Scored, chosen) -> str:
-        s, noise = self.s, self.prep.fit_noise
-        if not chosen:
-            structured = base.rho1 >= 0.5 and base.rmse > s.explained_factor * noise
-            return "unexplained" if structured else "adequate"
-        explained = final.rmse <= max(s.explained_factor * noise, s.explained_ratio * base.rmse)
-        return "augmented" if explained else "unexplained"
+        return self.s.verdict(bool(chosen), base.rmse, final.rmse, base.rho1, self.prep.fit_noise)
 
 
 def _decision(sel: Selector, sc: Scored, parent: Scored, checks: list) -> dict:
