@@ -156,7 +156,7 @@ def _friction_section(fits: list, comparisons: list, flags: list) -> dict:
              "body": "<p>A chain counts as converged when its length is at least <code>friction.autocorr_multiple"
                      "</code> (50) integrated autocorrelation times of every parameter. Wall times are left out so "
                      "that the report reproduces byte for byte: each fit's JSON holds them (<code>timing.wall_s</code>) "
-                     "and <code>benchmarks/friction_speed.py</code> measures it.</p>" + _flagged(conv)},
+                     "and <code>benchmarks/friction_speed.py</code> measures them.</p>" + _flagged(conv)},
             {"id": "comparison", "title": "Model comparison",
              "body": "".join(_comparison(p, flags) for p in comparisons) or "<p><em>none</em></p>"}]
     return {"id": "friction", "title": "Joint friction (emcee posteriors)", "body": intro, "subs": subs}
