@@ -73,3 +73,16 @@ def test_runs_that_differ_only_in_joint_friction_share_one_settling_bit_for_bit(
     simulate(_spec("ramp", **kw), -0.05, 0.05, settled=settled)               # another start
     simulate(_spec("ramp", **(kw | {"pressure_kpa": 6.9})), 0.05, 0.05, settled=settled)   # another shell
     assert len(settled) == 3
+
+
+def test_a_calibrated_soft_shell_starts_settled_however_deep_it_sinks():
+    """The hydroelastic calibration's moduli (about 1e4 Pa) hold the robot some 140 mm deep; a
+    settling capped at 50 mm dropped such a shell from where it touched, 0.14 m, and bounced it."""
+    spec = SimSpec(kind="shell_rock", contact="hydroelastic", pressure_kpa=6.9,
+                   shell=ShellParams(hydro_modulus=1.0e4, hydro_dissipation=0.76))
+    built = build(spec, sample_period=1e-3)
+    df, x = simulate(spec, -0.4, 0.2, sample_rate_hz=1000.0, built=built, return_states=True)
+    h = _height(built, x)
+    r = built.robot.radius
+    assert 0.10 < r - h[0] < 0.5 * r
+    assert np.ptp(h[:100]) < 5e-3                         # unsettled it falls by about 140 mm
