@@ -180,3 +180,19 @@ def test_the_committed_table_has_the_diagnosed_model_beat_every_paper_model_on_e
         diag = d[d.model == "diagnosed"].iloc[0]
         for c in ("rms_pipe_angle_rad", "rms_steer_angle_rad"):
             assert (diag[c] < d[d.model.isin(paper)][c]).all(), (rep, c)
+
+
+def test_the_coupled_table_says_what_each_model_key_stands_for():
+    """`hydroelastic` means eq. 10/11 here and the x0.5 variant in the PME table: each table says."""
+    from roboball.pipeline.coupled import table_markdown
+    table = pd.DataFrame([{"model": m, "repeat": "r", "held_out": True, "pressure_kpa": 8.0,
+                           "rms_pipe_angle_rad": 0.1, "rms_steer_angle_rad": 0.1}
+                          for m in ("hydroelastic", "hydro_half", "hydro_tuned", "diagnosed")])
+    summary = {"pressure": {"p_kpa": 8.0, "ci95_kpa": [7.0, 9.0], "folds": {"r": 8.0}},
+               "authors_objective": {"theirs_loss_rad2": 0.2, "theirs_params": [1.5e5, 0.4], "ours_loss_rad2": 0.1,
+                                     "ours_params": [6e5, 0.05], "evaluations": 30}}
+    md = table_markdown(table, summary)
+    assert "`hydroelastic`: hydroelastic (eq. 10/11)" in md
+    assert "`hydro_half`: hydroelastic, x0.5 dissipation (paper's tuned)" in md
+    assert "`hydro_tuned`: hydroelastic, calibrated (Fig. S3)" in md
+    assert "`diagnosed`: diagnosed (held out)" in md

@@ -15,7 +15,8 @@ LABELS = {"ours_nm": "ours: authors' objective refitted", "diagnosed": "diagnose
 COORDS = (("pipe_angle_rad", "pipe angle phi (rad)"), ("steer_angle_rad", "steer joint angle theta (rad)"))
 
 
-def _label(name: str) -> str:
+def label(name: str) -> str:
+    """What a model key of Fig. S2 and its table stands for."""
     from roboball.sim.coupled import MODEL_NAMES, model
     return model(name).label if name in MODEL_NAMES else LABELS.get(name, name)
 
@@ -37,7 +38,7 @@ def plot(traces: pd.DataFrame, table: pd.DataFrame, out_png: str) -> None:
                 dm = d[d.model == m]
                 colour, ls = STYLE.get(m, ("k", "-"))
                 ax.plot(dm.time_s, dm[col], color=colour, ls=ls, lw=2.0 if m == "diagnosed" else 1.2,
-                        label=_label(m))
+                        label=label(m))
             if j == 0:
                 ax.set_ylabel(ylabel)
             if i == 1:

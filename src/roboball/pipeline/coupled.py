@@ -95,7 +95,10 @@ def overall(table: pd.DataFrame) -> pd.DataFrame:
 def table_markdown(table: pd.DataFrame, summary: dict) -> str:
     """The RMS table as Markdown (over the repeats, then per repeat), with the pressure and the
     two losses under it."""
+    from roboball.figures.coupled import label
+    names = list(dict.fromkeys(table.model))
     lines = ["# Coupled steer test: RMS error per model, repeat and coordinate (Fig. S2)", "",
+             "Models: " + "; ".join(f"`{n}`: {label(n)}" for n in names) + ".", "",
              "| model | held out | RMS pipe angle (rad), all repeats | RMS steer angle (rad), all repeats |", "|---|---|---|---|"]
     held = table.groupby("model", sort=False).held_out.all()
     for _, r in overall(table).iterrows():
