@@ -109,14 +109,14 @@ def settle_on_ground(built: Built, context, max_sink_m: float | None = None, tol
 
     A robot held still on the ground rests in its contact: a compliant (hydroelastic) shell is
     pressed in by 6-17 mm at eq. 10's moduli and by up to 140 mm at the calibrated ones (1e4 Pa),
-    rigid point contact by its penetration allowance (under 1 mm).  Started touching but not pressed in, the shell would first fall into the
-    ground for 25-45 ms after the release and bounce at the contact's natural frequency: a start
+    rigid point contact by its penetration allowance (under 1 mm).  Started touching but not
+    pressed in, the shell would first fall into the ground for 25-45 ms after the release and bounce at the contact's natural frequency: a start
     transient no held robot has.  The penetration is the root (Brent's method, to `tol_m`) of the
     shell centre's speed along the ground normal after one time step from rest, computed in a
     scratch context; a contact that does not hold the weight within `max_sink_m` (default: the
     depth at which a run stops as sunk, MAX_SINK_FRACTION of the radius) leaves the start as it
-    was.  A smaller cap (it was 50 mm) dropped every shell softer than about 4e4 Pa from the
-    height at which it touched, a fall of up to 140 mm and a bounce before the release."""
+    was.  Any smaller cap (50 mm, say) would drop every shell softer than about 4e4 Pa from where
+    it touched: a fall of up to 140 mm and a bounce before the release."""
     from scipy.optimize import brentq
 
     if max_sink_m is None:
