@@ -27,9 +27,11 @@ $(STAMP): pyproject.toml requirements.lock
 # e.g. make figures SNAKEMAKE_TARGETS=results/identify/shell_regression.csv).  After an
 # interrupted run (killed, power cut) roboball.pipeline.runlock clears Snakemake's stale lock and
 # --rerun-incomplete redoes the jobs that were cut short, so rerunning `make figures` just works.
+# The greedy scheduler: Snakemake's default (an ILP solved before every batch of jobs) costs
+# about 0.2 s of a core per job on this DAG and buys nothing with 2 cores (docs/performance.md).
 SNAKEMAKE_TARGETS ?=
 figures: $(STAMP)
-	$(BIN)/python -m roboball.pipeline.runlock $(BIN)/snakemake $(SNAKEMAKE_TARGETS) --cores $(CORES) --rerun-incomplete --rerun-triggers mtime input params code
+	$(BIN)/python -m roboball.pipeline.runlock $(BIN)/snakemake $(SNAKEMAKE_TARGETS) --cores $(CORES) --scheduler greedy --rerun-incomplete --rerun-triggers mtime input params code
 
 # The everyday suite (about 5 minutes on 2 cores); the slow tests (whole campaign regeneration,
 # kill-and-resume, the browser, the real logs' diagnoses and friction chains) run in CI after it

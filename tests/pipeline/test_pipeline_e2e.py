@@ -38,7 +38,7 @@ def _copy_repo(dst: Path) -> Path:
 
 def _smk(workdir, *args, check=True):
     # args (flags and targets) first: --configfile and --rerun-triggers take every word after them
-    cmd = [SNAKEMAKE, *args, "--cores", "2", "--configfile", "configs/config.yaml",
+    cmd = [SNAKEMAKE, *args, "--cores", "2", "--scheduler", "greedy", "--configfile", "configs/config.yaml",
            str(REPO / "tests/data/config_e2e.yaml"), "--rerun-triggers", "mtime", "input", "params", "code"]
     r = subprocess.run(cmd, cwd=workdir, capture_output=True, text=True)
     if check and r.returncode != 0:
