@@ -32,6 +32,9 @@ from roboball.sim.spec import SimSpec
 # A shell whose centre sinks below half its radius has gone through the ground: the run stops
 # there, and no start is pressed in deeper.
 MAX_SINK_FRACTION = 0.5
+# The settling's first search bracket (m): every shell but the calibrated hydroelastic ones rests
+# within it.
+FIRST_BRACKET_M = 0.05
 
 
 def set_release(built: Built, context, release: float, steer0: float = 0.0, settled: dict | None = None) -> None:
@@ -110,13 +113,16 @@ def settle_on_ground(built: Built, context, max_sink_m: float | None = None, tol
     A robot held still on the ground rests in its contact: a compliant (hydroelastic) shell is
     pressed in by 6-17 mm at eq. 10's moduli and by up to 140 mm at the calibrated ones (1e4 Pa),
     rigid point contact by its penetration allowance (under 1 mm).  Started touching but not
-    pressed in, the shell would first fall into the ground for 25-45 ms after the release and bounce at the contact's natural frequency: a start
-    transient no held robot has.  The penetration is the root (Brent's method, to `tol_m`) of the
-    shell centre's speed along the ground normal after one time step from rest, computed in a
-    scratch context; a contact that does not hold the weight within `max_sink_m` (default: the
-    depth at which a run stops as sunk, MAX_SINK_FRACTION of the radius) leaves the start as it
-    was.  Any smaller cap (50 mm, say) would drop every shell softer than about 4e4 Pa from where
-    it touched: a fall of up to 140 mm and a bounce before the release."""
+    pressed in, the shell would first fall into the ground for 25-45 ms after the release and
+    bounce at the contact's natural frequency: a start transient no held robot has.  The
+    penetration is the root (Brent's method, to `tol_m`) of the shell centre's speed along the
+    ground normal after one time step from rest, computed in a scratch context; a contact that
+    does not hold the weight within `max_sink_m` (default: the depth at which a run stops as
+    sunk, MAX_SINK_FRACTION of the radius) leaves the start as it was.
+
+    The root is searched in [0, FIRST_BRACKET_M] first, then deeper: Brent's iterates depend on
+    the bracket, so a shell that rests within the first one settles to the same bits whatever
+    the cap (the campaign's recordings are checked bit for bit)."""
     from scipy.optimize import brentq
 
     if max_sink_m is None:
@@ -134,12 +140,16 @@ def settle_on_ground(built: Built, context, max_sink_m: float | None = None, tol
         sim.AdvanceTo(scratch.get_time() + built.spec.dt)
         return float(plant.EvalBodySpatialVelocityInWorld(spctx, body).translational() @ built.ground_normal)
 
-    lo, hi = normal_speed(0.0), normal_speed(max_sink_m)
-    if not (lo < 0.0 < hi):
+    if not normal_speed(0.0) < 0.0:
         return 0.0
-    sink = float(brentq(normal_speed, 0.0, max_sink_m, xtol=tol_m))
-    _shift_along_normal(built, context, sink)
-    return sink
+    top = 0.0
+    for deeper in sorted({min(FIRST_BRACKET_M, max_sink_m), max_sink_m}):
+        if normal_speed(deeper) > 0.0:
+            sink = float(brentq(normal_speed, top, deeper, xtol=tol_m))
+            _shift_along_normal(built, context, sink)
+            return sink
+        top = deeper
+    return 0.0
 
 
 def signals_from_states(built: Built, x: np.ndarray) -> dict:
