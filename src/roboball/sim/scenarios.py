@@ -142,8 +142,9 @@ def settle_on_ground(built: Built, context, max_sink_m: float | None = None, tol
 
     if not normal_speed(0.0) < 0.0:
         return 0.0
+    brackets = (FIRST_BRACKET_M, max_sink_m) if max_sink_m > FIRST_BRACKET_M else (max_sink_m,)
     top = 0.0
-    for deeper in sorted({min(FIRST_BRACKET_M, max_sink_m), max_sink_m}):
+    for deeper in brackets:
         if normal_speed(deeper) > 0.0:
             sink = float(brentq(normal_speed, top, deeper, xtol=tol_m))
             _shift_along_normal(built, context, sink)
