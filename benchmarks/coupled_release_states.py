@@ -16,7 +16,7 @@ pipe and steer rate) are fitted by least squares of both coordinates in Drake:
 
 Printed per model and repeat: the states, the RMS of each coordinate and the Drake runs spent.
 Needs `make figures` first (the shell regression, the real stand's Majd fit, the coupled
-stage's pressure).  About 3 min per model.
+stage's pressure).  About 1-1.5 min per model.
 """
 from __future__ import annotations
 
