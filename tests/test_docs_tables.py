@@ -118,3 +118,24 @@ def test_a_stale_number_is_caught():
     # the check itself: the earlier campaign's figure against today's value, and rounding
     assert not agrees("0.113", 0.11247) and agrees("0.112", 0.11247)
     assert agrees("1.0e4", 10000.0) and not agrees("1.21e4", 1.8e4) and agrees("+2.79", 2.7939)
+
+
+def test_the_readme_known_limits_quote_the_tables(pme):
+    readme = (REPO / "README.md").read_text()
+    errors = []
+    tuned = pd.read_csv(PF / "table_hydro_tuned.csv").set_index("pressure_kpa")
+    m = re.search(r"stays\s+([\d.]+)% \(omega_n\) below the recording", readme)
+    assert m, "README: the tuned shell's omega_n gap at 6.9 kPa is not stated"
+    check("README tuned omega_n gap", m.group(1), -tuned.loc[6.9, "omega_n_error_percent"], errors)
+    m = re.search(r"nearly as slow as the injected model \((-[\d.]+)%\)", readme)
+    assert m, "README: the tuned shell's ramp PME is not stated"
+    rows = pme[pme.contact == "hydro_tuned"]
+    check("README hydro_tuned ramp PME", m.group(1), float(np.average(rows.pme_mean_percent, weights=rows.runs)), errors)
+    m = re.search(r"favours both x1\.5 \(([\d.]+)% against ([\d.]+)% mean zeta error\)", readme)
+    assert m, "README: the sweep's verdict is not stated"
+    sweep = pd.read_csv(PF / "table_sweep.csv").groupby("case").abs_error_percent.mean()
+    check("README sweep both x1.5", m.group(1), sweep["both x1.5"], errors)
+    check("README sweep dissipation x0.5 (the carried-forward setting)", m.group(2), sweep["dissipation x0.5"], errors)
+    if sweep.idxmin() != "both x1.5":
+        errors.append(f"README: the sweep favours {sweep.idxmin()}, not both x1.5")
+    assert not errors, "\n".join(errors)
