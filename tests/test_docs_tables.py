@@ -139,3 +139,51 @@ def test_the_readme_known_limits_quote_the_tables(pme):
     if sweep.idxmin() != "both x1.5":
         errors.append(f"README: the sweep favours {sweep.idxmin()}, not both x1.5")
     assert not errors, "\n".join(errors)
+
+
+def test_the_seven_statements_table_quotes_the_sweep_and_pme_tables(pme):
+    """Statements 3-7 of docs/testbed.md (issue 25's table), from the committed sweep and PME tables;
+    1 and 2 come from the shell runs in results/, which a clone does not have."""
+    rows = {}
+    for line in (DOCS / "testbed.md").read_text().splitlines():
+        m = re.match(r"\| ([1-7]) \| (.*)", line)
+        if m:
+            rows[int(m.group(1))] = [c.strip() for c in m.group(2).strip().strip("|").split(" | ")]
+    assert sorted(rows) == list(range(1, 8)), "docs/testbed.md: the statements table lost a row"
+    errors = []
+    sweep = pd.read_csv(PF / "table_sweep.csv")
+    control = sweep[sweep.case == "control"].set_index("pressure_kpa")
+    shown = numbers(rows[3][1])
+    for j, p in enumerate(PRESSURES):
+        check(f"statement 3 hydroelastic zeta {p} kPa", shown[j], control.loc[p, "zeta"], errors)
+        check(f"statement 3 recorded zeta {p} kPa", shown[5 + j], control.loc[p, "zeta_measured"], errors)
+    over = int((control.zeta > control.zeta_measured).sum())
+    if f"no at {5 - over} of 5 pressures" not in rows[3][2]:
+        errors.append(f"statement 3: the hydroelastic model over-damps at {over} of 5 pressures")
+    means = sweep.groupby("case").abs_error_percent.mean()
+    for s, case in re.findall(r"([\d.]+)% \(([^)]+)\)", rows[4][1]):
+        check(f"statement 4 {case}", s, means[case], errors)
+    check("statement 4 best", numbers(rows[4][1])[-1], means.min(), errors)
+    if f"best: {means.idxmin()}," not in rows[4][1]:
+        errors.append(f"statement 4: the best case is {means.idxmin()}")
+    by = {c: pme[pme.contact == c].set_index("pressure_kpa").pme_mean_percent
+          for c in ("point", "injected", "hydroelastic")}
+    overall = {c: float(np.average(pme[pme.contact == c].pme_mean_percent, weights=pme[pme.contact == c].runs))
+               for c in by}
+    for s, c in zip(numbers(rows[5][1]), ("hydroelastic", "point", "injected")):
+        check(f"statement 5 mean PME {c}", s, overall[c], errors)
+    if not all(abs(by["hydroelastic"]) < np.minimum(abs(by["point"]), abs(by["injected"]))):
+        errors.append("statement 5: the hydroelastic model is not the closest of the three at every pressure")
+    lo, hi = numbers(rows[6][1])[:2]
+    check("statement 6 closest", lo, by["hydroelastic"].max(), errors)
+    check("statement 6 furthest", hi, by["hydroelastic"].min(), errors)
+    if not (by["hydroelastic"] < 0).all():
+        errors.append("statement 6: the hydroelastic model is not slow at every pressure")
+    inj_hi, inj_lo, pt_lo, pt_hi = numbers(rows[7][1])[:4]
+    check("statement 7 injected", inj_hi, by["injected"].max(), errors)
+    check("statement 7 injected", inj_lo, by["injected"].min(), errors)
+    check("statement 7 point", pt_lo, by["point"].min(), errors)
+    check("statement 7 point", pt_hi, by["point"].max(), errors)
+    if not all(abs(by["hydroelastic"]) < abs(by["point"])):
+        errors.append("statement 7: the hydroelastic model does not beat point contact at every pressure")
+    assert not errors, "\n".join(errors)
