@@ -42,17 +42,17 @@ NAMES = ("pipe angle (rad)", "steer angle (rad)", "pipe rate (rad/s)", "steer ra
 
 
 def data_state(rep) -> tuple[np.ndarray, np.ndarray]:
-    """The stage's release state of `rep` and how far the data leave each entry open."""
+    """The stage's release state of `rep` (its first sample and `Repeat.release_rates`) and how
+    far the data leave each entry open."""
     m = rep.t <= rep.t[0] + RELEASE_RATE_S
     tau = rep.t[m] - rep.t[0]
-    x0, half = [rep.pipe[0], rep.steer[0]], []
-    for y in (rep.pipe, rep.steer):
-        half.append(3 * sample_noise(rep.t, y))
-    for y in (rep.pipe, rep.steer):
-        coef, cov = np.polyfit(tau, y[m], 2, cov="unscaled")
-        noise = sample_noise(rep.t, y)
-        x0.append(coef[1])
-        half.append(2 * noise * float(np.sqrt(cov[1, 1])))
+    noise = [sample_noise(rep.t, y) for y in (rep.pipe, rep.steer)]
+    # the standard error of the quadratic's slope, which release_rates takes as the rate
+    slope_se = [n * float(np.sqrt(np.polyfit(tau, y[m], 2, cov="unscaled")[1][1, 1]))
+                for n, y in zip(noise, (rep.pipe, rep.steer))]
+    rates = rep.release_rates()
+    x0 = [rep.pipe[0], rep.steer[0], rates["pipe_rate"], rates["steer_rate"]]
+    half = [3 * noise[0], 3 * noise[1], 2 * slope_se[0], 2 * slope_se[1]]
     return np.array(x0, dtype=float), np.array(half, dtype=float)
 
 
