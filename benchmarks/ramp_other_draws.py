@@ -79,8 +79,8 @@ def one_seed(seed: int, keep: Path | None) -> list[dict]:
     table = pd.read_csv(work / "paper_figures" / "table_pme.csv")
     rows = []
     for p in load_truth()["campaign"]["pressures_kpa"]:
-        at = table[table.pressure_kpa == p].set_index("contact")["pme_mean_percent"]
-        mape = table[table.pressure_kpa == p].set_index("contact")["mape_mean_percent"]
+        at_p = table[table.pressure_kpa == p].set_index("contact")
+        at, mape = at_p["pme_mean_percent"], at_p["mape_mean_percent"]
         held = [effects(f) for f in sorted((work / "results/diagnose/heldout").glob(f"ramp_{p}kpa_r*/diagnosis.json"))]
         rows.append(dict(seed=seed, pressure_kpa=p,
                          pooled=effects(work / f"results/diagnose/pressure/ramp_{p}kpa/diagnosis.json"),
