@@ -28,7 +28,7 @@ def selector(table: dict, candidates=("a", "b", "c", "d"), restarted: dict | Non
     sel = Selector.__new__(Selector)
     sel.s = Settings(**settings)
     sel.prep = SimpleNamespace(noise=NOISE, fit_noise=NOISE, windows=[])
-    sel.model = SimpleNamespace(candidates=tuple(candidates))
+    sel.model = SimpleNamespace(candidates=tuple(candidates), search_rounds=1)
     sel.log = lambda msg: None
     sel.fits = {}
     sel.grown = []

@@ -106,7 +106,7 @@ def _diagnosis(kind="steer_stand", unit="rad", chosen=("coulomb_friction", "visc
     return SimpleNamespace(
         prep=SimpleNamespace(kind=kind, unit=unit, windows=windows),
         model=SimpleNamespace(dof="steer", description="rigid pendulum",
-                              base_params=(SimpleNamespace(name="viscous_c"),)),
+                              base_params=(SimpleNamespace(name="viscous_c"),), hidden_release=()),
         baseline=SimpleNamespace(values=base_values, rmse=0.084, cv_rmse=0.091),
         final=SimpleNamespace(values=final_values, rmse=0.012, cv_rmse=0.014, delta_bic=-852.0),
         chosen=list(chosen), steps=steps, verdict=verdict,

@@ -18,11 +18,15 @@ rule diagnose:
         report="results/diagnose/{stem}/report.md",
         details="results/diagnose/{stem}/details.json",
         figures=expand("results/diagnose/{{stem}}/{name}.png", name=("overlay", "regimes", "windows")),
-    params: code=CODE["diagnose-recording"]
+    params:
+        code=CODE["diagnose-recording"],
+        steer=lambda w: REC[w.stem].get("steer_joint", ""),
     wildcard_constraints: stem="[^/]+"
     log: "results/logs/diagnose/{stem}.log"
     benchmark: "results/benchmarks/diagnose/{stem}.tsv"
-    shell: "{ROBOBALL} diagnose-recording --recording {input.csv} --out-dir results/diagnose/{wildcards.stem} > {log} 2>&1"
+    shell:
+        "{ROBOBALL} diagnose-recording --recording {input.csv} --steer-joint '{params.steer}' "
+        "--out-dir results/diagnose/{wildcards.stem} > {log} 2>&1"
 
 
 rule diagnose_ramp_pressure:

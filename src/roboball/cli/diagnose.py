@@ -1,5 +1,5 @@
 """`roboball diagnose RECORDING.csv [MORE.csv ...] --out DIR [--kind KIND] [--pressure-kpa P]
-[--friction-steer FIT.json] [--friction-drive FIT.json]`.
+[--steer-joint locked|free] [--friction-steer FIT.json] [--friction-drive FIT.json]`.
 
 Reads one recording (or one of the authors' native logs), diagnoses it against the baseline
 of its kind and writes DIR/diagnosis.json, DIR/report.md (+ figures) and DIR/details.json.
@@ -145,7 +145,8 @@ def cmd_diagnose(args) -> int:
     progress = Progress(label, verbose=args.verbose)
     try:
         d, js = diagnose(args.recording, out_dir=args.out, kind=args.kind, pressure_kpa=args.pressure_kpa,
-                         settings=Settings(), drake=not args.no_drake, log=progress, friction=friction or None)
+                         settings=Settings(), drake=not args.no_drake, log=progress, friction=friction or None,
+                         steer_joint=args.steer_joint)
     except ValueError as exc:     # e.g. a model that cannot represent the recording's kind
         raise RoboballError(f"{label}: {exc}")
     finally:
@@ -168,8 +169,12 @@ def _register(sub):
     p.add_argument("--kind", type=_kind, default=None, help="experiment kind (default: the sidecar's)")
     p.add_argument("--pressure-kpa", type=_pressure, default=None, metavar="KPA",
                    help="shell gauge pressure (kPa; default: the sidecar's)")
+    p.add_argument("--steer-joint", choices=("locked", "free"), default=None,
+                   help="shell_rock: whether the pendulum was clamped during the release (default: the sidecar's "
+                        "steer_joint, else locked); free fits the steer joint's unobserved release state")
     p.add_argument("--friction-steer", default=None, metavar="FIT.json",
-                   help="ramp baseline: Majd steer friction from a fit (roboball's fit JSON; default: Table I); "
+                   help="ramp baseline, or shell_rock with --steer-joint free: Majd steer friction from a fit "
+                        "(roboball's fit JSON; default: Table I); "
                         f"steer_coupled baseline: the stand fit with its delta_i (default: {COUPLED_FRICTION})")
     p.add_argument("--regression", default=COUPLED_REGRESSION, metavar="CSV",
                    help=f"steer_coupled baseline: the shell regression zeta(p), omega_n(p) (default: {COUPLED_REGRESSION})")

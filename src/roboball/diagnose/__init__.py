@@ -19,19 +19,25 @@ from __future__ import annotations
 
 
 def diagnose(recording, out_dir=None, kind: str | None = None, pressure_kpa: float | None = None,
-             settings=None, drake: bool = True, log=None, friction: dict | None = None):
+             settings=None, drake: bool = True, log=None, friction: dict | None = None,
+             steer_joint: str | None = None):
     """Diagnose one recording (a path, or a roboball.ingest.recording.Recording), or several recordings
     of one experiment together (a list: same kind, pressure and ramp angle; every release of
     each is a release of the pooled fit, and held-out validation leaves one release out:
     roboball.diagnose.data.pool).
 
-    `friction` replaces the ramp baseline's Table I joint friction ({"steer": {...}, "drive":
+    `friction` replaces the ramp baseline's (or a free steer joint's) Table I joint friction ({"steer": {...}, "drive":
     {...}} Majd parameters, e.g. from roboball.identify.friction.results.read_friction): the pipeline diagnoses the paper's point
     model with the friction fitted on the stand logs.
 
     Returns (Diagnosis, diagnosis.json content).  With `out_dir`, writes diagnosis.json,
     report.md, details.json and the figures there (the Drake simulations of the baseline and
-    augmented model run only then, or when `drake` is forced with an out_dir)."""
+    augmented model run only then, or when `drake` is forced with an out_dir).
+
+    `steer_joint` ("locked" or "free"; default the sidecar's `steer_joint`, else "locked", the
+    contract's shell_rock baseline): whether the pendulum was clamped during a shell release.
+    Free, the baseline is roboball.reduced.shell_steer's two-coordinate model, with the steer
+    joint's unobserved release state fitted inside it."""
     from roboball.ingest.recording import Recording
     from roboball.diagnose.data import pool, prepare, read
     from roboball.diagnose.select import diagnose_prepared
@@ -45,7 +51,14 @@ def diagnose(recording, out_dir=None, kind: str | None = None, pressure_kpa: flo
     if log:
         log(f"data: {len(prep.windows)} release window(s) of {prep.kind}")
     model = None
-    if friction:
+    steer = _steer_joint(prep, steer_joint)
+    if steer == "free":
+        from roboball.reduced.shell_steer import ShellSteerModel
+        model = ShellSteerModel(friction=(friction or {}).get("steer"))
+        friction = None
+        if log:
+            log(f"data: the pendulum free on its steer joint ({model.friction_source} friction)")
+    elif friction:
         if prep.kind != "ramp":
             raise ValueError(f"baseline friction can replace Table I only in the ramp baseline, not in {prep.kind}")
         model = model_for("ramp", ramp_angle_deg=prep.recording.ramp_angle_deg, friction=friction)
@@ -58,4 +71,25 @@ def diagnose(recording, out_dir=None, kind: str | None = None, pressure_kpa: flo
         return d, js
     from roboball.diagnose.report import write
     return d, write(d, out_dir, drake=drake)
+
+
+STEER_JOINT = ("locked", "free")
+
+
+def _steer_joint(prep, given: str | None) -> str:
+    """The shell release's steer setting: the argument, else the sidecar's `steer_joint`, else
+    locked; a one-line error for another value, or for "free" on a recording that is no shell release."""
+    from roboball.errors import RoboballError
+    rec = prep.recording
+    value = given if given is not None else rec.meta.get("steer_joint", "locked")
+    if given is not None:
+        where = "--steer-joint"
+    else:
+        from roboball.ingest.sidecar import sidecar_path
+        where = f"{sidecar_path(rec.path) if rec.path is not None else rec.label}: field steer_joint"
+    if value not in STEER_JOINT:
+        raise RoboballError(f"{where}: '{value}' is not a steer setting (choose from {', '.join(STEER_JOINT)})")
+    if value == "free" and prep.kind != "shell_rock":
+        raise RoboballError(f"{where}: a free steer joint is a shell_rock setting, not one of {prep.kind}")
+    return value
 

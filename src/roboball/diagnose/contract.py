@@ -29,6 +29,9 @@ def baseline_fitted(d: Diagnosis, values: dict | None = None) -> dict:
         if f"q0@{w.index}" in v and unit:
             out[f"release_{i}_{unit}"] = _round(v[f"q0@{w.index}"])
         out[f"release_{i}_s"] = _round(w.t0 + v.get(f"ts@{w.index}", 0.0))
+        for h in d.model.hidden_release:       # an unobserved coordinate's release state
+            if f"{h.name}@{w.index}" in v:
+                out[f"release_{i}_{h.name}_{h.unit.replace('/', '_')}"] = _round(v[f"{h.name}@{w.index}"])
     return out
 
 

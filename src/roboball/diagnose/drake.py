@@ -10,7 +10,9 @@ effects in C++ at every step (no Python in the time loop).
 Where each experiment's coordinate lives in the plant:
 * stands: the steer (or drive) joint angle and rate, measured from the model's rest angle;
 * shell_rock: the floating base's roll (pipe_angle, from the quaternion) and its world-x
-  angular velocity (Kin.pipe_rate), torque on that velocity;
+  angular velocity (Kin.pipe_rate), torque on that velocity; with the steer joint free
+  (roboball.reduced.shell_steer) the plant is the coupled scenario's, released with the steer
+  joint's fitted state;
 * ramp: the drive rate (Kin.drive_rate); the torque is a couple on the pipe assembly about its
   driveshaft axis (R[:,1] T on the base's angular velocity, -T on the drive joint), the same
   construction as the injected shell's drive damping.
@@ -34,7 +36,7 @@ from roboball.physics import effects as fx
 from roboball.sim.forces import SYM, GeneralizedTerm, Kin
 from roboball.sim.plant import build
 from roboball.sim.scenarios import simulate
-from roboball.sim.spec import SimSpec
+from roboball.sim.spec import ShellParams, SimSpec
 from roboball.diagnose.data import Prepared
 from roboball.diagnose.sensor import sensed
 from roboball.reduced.base import ReducedModel
@@ -94,6 +96,13 @@ def drake_spec(prep: Prepared, model: ReducedModel, values: dict, effects, dt: f
                        added_inertia={joint: added} if added else {})
     if added:
         raise ValueError(f"no added inertia on the {kind} coordinate in Drake (no joint actuator there)")
+    if kind == "shell_rock" and getattr(model, "steer_joint", "locked") == "free":
+        # the pendulum free on its steer joint: Drake's coupled scenario (point contact, the
+        # reduced model's Majd steer friction, drive held) with the effects on the roll
+        from roboball.sim.coupled import coupled_spec
+        spec = coupled_spec("point", ShellParams(), model.steer_friction, extra_terms=extra, dt=dt)
+        spec.pressure_kpa = prep.recording.pressure_kpa
+        return spec
     if kind == "shell_rock":
         return SimSpec(kind=kind, contact="point", friction={"steer": "none", "drive": "none"}, dt=dt,
                        pressure_kpa=prep.recording.pressure_kpa, extra_terms=extra)
@@ -147,7 +156,12 @@ def simulate_windows(prep: Prepared, model: ReducedModel, values: dict, effects,
                     if note not in prep.notes:
                         prep.notes.append(note)
                     release = min(max(release, lo), hi)
-        df = simulate(spec, release, max(duration, 0.1), sample_rate_hz=rate, steer0=steer0, built=built)
+        rates0 = None
+        if model.hidden_release:       # the unobserved steer joint's fitted release state
+            steer0 = float(values.get(f"steer_angle@{w.index}", 0.0))
+            rates0 = {"pipe_rate": 0.0, "steer_rate": float(values.get(f"steer_rate@{w.index}", 0.0))}
+        df = simulate(spec, release, max(duration, 0.1), sample_rate_hz=rate, steer0=steer0, built=built,
+                      rates0=rates0)
         tau = w.t - w.t0 - ts
         y = df[prep.signal].to_numpy()
         out[w.index] = w.observe(sensed(w, tau, df.time_s.to_numpy(), y, values))

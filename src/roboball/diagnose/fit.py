@@ -87,10 +87,15 @@ class Engine:
         # How far a fitted release instant may move from the release finder's (s; 0 for a model
         # that fits no instant): bounds the fit and lengthens every simulation by as much.
         self.max_shift = model.ts_bound if "t_shift" in model.release_params else 0.0
+        # release states of coordinates the recording does not observe (a free pendulum's steer
+        # joint under a shell log): fitted per release like q0, passed to the model by name
+        self.hidden = tuple(model.hidden_release)
         for w in prep.windows:
             self.info[f"q0@{w.index}"] = (0.01, w.q0 - Q0_BOUND, w.q0 + Q0_BOUND)
             if "t_shift" in model.release_params:
                 self.info[f"ts@{w.index}"] = (0.01, -self.max_shift, self.max_shift)
+            for h in self.hidden:
+                self.info[f"{h.name}@{w.index}"] = (h.typical, h.lo, h.hi)
         # the sensor's own parameters (their values: starts of the fits where free) when the
         # recording calls for them (roboball.diagnose.sensor_fit); none: predictions are compared
         # as simulated
@@ -106,7 +111,9 @@ class Engine:
         """The fitted release state of window `w` (those of the model's `release_params`) with its
         starting values: the hold level and no shift of the detected instant."""
         start = {"q0": (f"q0@{w.index}", w.q0), "t_shift": (f"ts@{w.index}", 0.0)}
-        return dict(start[p] for p in ("q0", "t_shift") if p in self.model.release_params)
+        out = dict(start[p] for p in ("q0", "t_shift") if p in self.model.release_params)
+        out.update((f"{h.name}@{w.index}", h.start) for h in self.hidden)
+        return out
 
     def initial_values(self) -> dict:
         v = {b.name: b.start for b in self.model.base_params}
@@ -149,6 +156,8 @@ class Engine:
         P = {k: np.fromiter((v.get(k, 0.0) for v, _ in items), float, B) for k in self.p_keys}
         q0 = np.fromiter((v.get(f"q0@{w}", self.windows[w].q0) for v, w in items), float, B)
         ts = np.fromiter((v.get(f"ts@{w}", 0.0) for v, w in items), float, B)
+        for h in self.hidden:
+            P[h.name] = np.fromiter((v.get(f"{h.name}@{w}", h.start) for v, w in items), float, B)
         lag = np.fromiter((lag_of(v) for v, _ in items), float, B) if self.sensor else None
         horizon = max(self.windows[w].duration for _, w in items) + self.max_shift + 0.05
         n_steps = int(math.ceil(horizon / dt)) + 1
@@ -214,7 +223,7 @@ class Engine:
             pv = dict(values)
             pv[key] = values[key] + h
             steps[key] = h
-            if key.startswith("q0@"):
+            if "@" in key:              # a release state: only its own window moves
                 w = int(key.split("@")[1])
                 plan.append((key, w, len(items)))
                 items.append((pv, w))
@@ -374,6 +383,33 @@ class Engine:
         return not p.converged
 
     # ---- grid starts ---------------------------------------------------------------------
+    def hidden_variants(self, values: dict) -> list:
+        """Copies of `values` with the unobserved release states (model.hidden_release) at each
+        of the model's starting points (`hidden_starts`; the same point for every release): a
+        free pendulum's state at the release has to be searched for, fits from a wrong swing
+        phase end in local minima.  Empty when the model has none."""
+        if not self.hidden:
+            return []
+        out = []
+        for point in self.model.hidden_starts():
+            v = dict(values)
+            for name, x in point.items():
+                v.update({f"{name}@{w}": float(x) for w in self.windows})
+            out.append(v)
+        return out
+
+    def best_of(self, prob: Problem, candidates: list) -> dict:
+        """The candidate values of lowest cost over the problem's samples (one batched run)."""
+        used = [w for w, m in prob.masks.items() if np.any(m)]
+        outs = self.predict([(v, w) for v in candidates for w in used])
+        costs = np.zeros(len(candidates))
+        with np.errstate(over="ignore"):
+            for i, (y, _) in enumerate(outs):
+                w = used[i % len(used)]
+                costs[i // len(used)] += float(np.sum((y - self.windows[w].y)[prob.masks[w]] ** 2))
+        costs[~np.isfinite(costs)] = np.inf
+        return dict(candidates[int(np.argmin(costs))])
+
     def best_starts(self, probs_effects):
         """Best grid start of each (problem, effect, base) in one batched simulation.
 

@@ -141,7 +141,10 @@ class Selector(KeepRule, CrossValidation):
 
     def _baseline(self) -> Scored:
         """Step 1: the baseline fitted, cross-validated and scored."""
-        base_p = self.full_problem((), self.engine.initial_values())
+        start = self.engine.initial_values()
+        base_p = self.full_problem((), start)
+        if self.engine.hidden:
+            base_p.values = self.engine.best_of(base_p, [start] + self.engine.hidden_variants(start))
         base = Scored(effects=(), full=base_p)
         self.cross_validate([base], cofit=True)
         self.score(base)
@@ -152,7 +155,7 @@ class Selector(KeepRule, CrossValidation):
         """Steps 2-4: rounds of the beam search.  Returns (the kept model of lowest BIC, per-round
         infos of every grown model)."""
         best, beam, steps, kept = base, [base], [], []
-        for _ in range(self.s.max_effects):
+        for n_round in range(1, self.s.max_effects + 1):
             parents = [p for p in beam if not self.white(p)]
             children = self.grow(parents, prefer=best) if parents else []
             if not children:
@@ -173,7 +176,9 @@ class Selector(KeepRule, CrossValidation):
             self.log(f"round: best so far {'+'.join(best.effects) or 'baseline'}; "
                      + ", ".join(f"{'+'.join(i['set'])} dBIC {i['delta_bic']:.4g} cv {i['cv_rmse']:.4g} ({i['reason']})"
                                  for i in steps[-1][: self.s.top_k + 2]))
-            if not passed:          # a round that keeps nothing ends the search, as a greedy path would
+            # a round that keeps nothing ends the search, as a greedy path would; a model that says
+            # its effects may only help together searches its first `search_rounds` regardless
+            if not passed and n_round >= self.model.search_rounds:
                 break
             beam = self._next_beam(children, best)
         return best, steps
@@ -261,6 +266,7 @@ class Selector(KeepRule, CrossValidation):
             effects = tuple(parent.effects) + (c,)
             trials.append((self.full_problem(effects, parent.values), c, parent.values))
             variants = _rescaled(nominal, parent.effects) if parent is first else [nominal]
+            variants += eng.hidden_variants(nominal)
             trials.append((self.full_problem(effects, nominal), c, variants))
         starts = eng.best_starts(trials)
         for (p, _, _), v in zip(trials, starts):

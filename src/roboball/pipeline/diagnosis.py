@@ -26,15 +26,18 @@ from roboball.pipeline.simulation import ramp_window
 STAGES = ("diagnose_recording", "ramp_diagnosed")
 
 
-def diagnose_recording(recording: list, out_dir: str, friction_steer: str = "", friction_drive: str = "") -> None:
+def diagnose_recording(recording: list, out_dir: str, friction_steer: str = "", friction_drive: str = "",
+                       steer_joint: str = "") -> None:
     """`roboball diagnose` on one recording (CSV with its sidecar), or on several recordings of
     one experiment together: diagnosis.json, report.md, predictions.csv and the figures in
     `out_dir`.  With fitted friction (the pipeline's Majd fits) the ramp baseline is the paper's
-    point model as the pipeline calibrates it, instead of the contract's Table I friction."""
+    point model as the pipeline calibrates it, instead of the contract's Table I friction.
+    `steer_joint` ("locked", "free"; empty: the sidecar's, else locked): a shell release's steer setting."""
     from roboball.diagnose import diagnose
     from roboball.identify.friction.fitted import read_joint_friction
 
-    diagnose(recording, out_dir=out_dir, friction=read_joint_friction(friction_steer, friction_drive) or None)
+    diagnose(recording, out_dir=out_dir, friction=read_joint_friction(friction_steer, friction_drive) or None,
+             steer_joint=steer_joint or None)
 
 
 def consensus_effects(diagnoses: list) -> dict:

@@ -52,6 +52,8 @@ class Campaign:
                     raise ConfigError(f"{config['raw_data']}/MANIFEST.csv: recording {stem}: the name of a real log "
                                       f"({real['path']}); rename the file (their results would overwrite each other)")
                 recordings[stem] = {"src": os.path.join(real["path"], real[kind]), "kind": kind, "pressure_kpa": ""}
+            # the shell log's steer setting, which the log does not record (config's comment)
+            recordings[REAL_STEMS["shell_rock"]]["steer_joint"] = real.get("shell_rock_steer_joint", "locked")
         else:
             notes.append(f"roboball: real logs not found at {real['path']}: the real-data part of the pipeline "
                          "is skipped (see README, 'Real recordings').")

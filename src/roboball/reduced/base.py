@@ -56,6 +56,15 @@ class ReducedModel:
     base_params: tuple = ()
     candidates: tuple = ()
     release_params: tuple = ("q0", "t_shift")
+    # BaseParams of release states of coordinates the recording does not show (fitted per
+    # release, passed to simulate in P by name; roboball.reduced.shell_steer)
+    hidden_release: tuple = ()
+    # rounds of the diagnosis's search run even when a round keeps nothing (roboball.diagnose.select)
+    search_rounds: int = 1
+
+    def hidden_starts(self) -> list:
+        """Starting points ({name: value}) of the hidden release states' fits."""
+        return [{h.name: h.start for h in self.hidden_release}] if self.hidden_release else []
     ts_bound: float = 0.1      # s: how far the fitted release instant may move from the finder's
     context: dict = {}
     description: str = ""
