@@ -94,10 +94,11 @@ def test_real_shell_log_is_unexplained_and_says_where(tmp_path):
 
 @pytest.mark.slow       # a real log: 15-45 s each; run by make test-slow and CI
 @pytest.mark.skipif(not REAL_STEER.exists(), reason="real logs not available (../shared/data/roboball_real)")
-@pytest.mark.xfail(strict=True, reason="issue 24, acceptance 1, not met: the later swings do not carry the first "
-                   "one (the log's frequency rises fourfold as its amplitude falls); blocks of 2 s, the first with "
-                   "its release state fitted on it: 0.063, 0.041, 0.004 rad, held-out 0.044 rad (fitted 0.0295)")
-def test_real_shell_log_heldout_rms_is_within_30_mrad():
+@pytest.mark.xfail(strict=True, reason="with the steer joint LOCKED (the contract's default baseline) the later "
+                   "swings do not carry the first one; blocks of 2 s, the first with its release state fitted on it: "
+                   "0.063, 0.041, 0.004 rad, held-out 0.044 rad (fitted 0.0295).  With the pendulum free, as the "
+                   "pipeline diagnoses this log, it is 0.0068 rad (tests/diagnose/test_steer_joint.py)")
+def test_real_shell_log_with_the_steer_locked_heldout_rms_is_within_30_mrad():
     d, js = diagnose(REAL_STEER.with_name("dynamic_data.csv"))
     assert js["fit"]["rmse_heldout_after"] <= 0.03
 
