@@ -1,5 +1,5 @@
 """`roboball diagnose RECORDING.csv [MORE.csv ...] --out DIR [--kind KIND] [--pressure-kpa P]
-[--steer-joint locked|free] [--friction-steer FIT.json] [--friction-drive FIT.json]`.
+[--steer-joint locked|free|unknown] [--friction-steer FIT.json] [--friction-drive FIT.json]`.
 
 Reads one recording (or one of the authors' native logs), diagnoses it against the baseline
 of its kind and writes DIR/diagnosis.json, DIR/report.md (+ figures) and DIR/details.json.
@@ -169,9 +169,10 @@ def _register(sub):
     p.add_argument("--kind", type=_kind, default=None, help="experiment kind (default: the sidecar's)")
     p.add_argument("--pressure-kpa", type=_pressure, default=None, metavar="KPA",
                    help="shell gauge pressure (kPa; default: the sidecar's)")
-    p.add_argument("--steer-joint", choices=("locked", "free"), default=None,
+    p.add_argument("--steer-joint", choices=("locked", "free", "unknown"), default=None,
                    help="shell_rock: whether the pendulum was clamped during the release (default: the sidecar's "
-                        "steer_joint, else locked); free fits the steer joint's unobserved release state")
+                        "steer_joint, else locked); free fits the steer joint's unobserved release state; unknown "
+                        "diagnoses both and reports the one that predicts held-out data better")
     p.add_argument("--friction-steer", default=None, metavar="FIT.json",
                    help="ramp baseline, or shell_rock with --steer-joint free: Majd steer friction from a fit "
                         "(roboball's fit JSON; default: Table I); "

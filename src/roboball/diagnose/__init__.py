@@ -34,10 +34,12 @@ def diagnose(recording, out_dir=None, kind: str | None = None, pressure_kpa: flo
     report.md, details.json and the figures there (the Drake simulations of the baseline and
     augmented model run only then, or when `drake` is forced with an out_dir).
 
-    `steer_joint` ("locked" or "free"; default the sidecar's `steer_joint`, else "locked", the
-    contract's shell_rock baseline): whether the pendulum was clamped during a shell release.
-    Free, the baseline is roboball.reduced.shell_steer's two-coordinate model, with the steer
-    joint's unobserved release state fitted inside it."""
+    `steer_joint` ("locked", "free" or "unknown"; default the sidecar's `steer_joint`, else
+    "locked", the contract's shell_rock baseline): whether the pendulum was clamped during a shell
+    release.  Free, the baseline is roboball.reduced.shell_steer's two-coordinate model, with the
+    steer joint's unobserved release state fitted inside it.  Unknown, the recording is diagnosed
+    both ways and the setting whose diagnosis predicts the held-out data better is reported
+    (`either_steer_setting`)."""
     from roboball.ingest.recording import Recording
     from roboball.diagnose.data import pool, prepare, read
     from roboball.diagnose.select import diagnose_prepared
@@ -52,17 +54,19 @@ def diagnose(recording, out_dir=None, kind: str | None = None, pressure_kpa: flo
         log(f"data: {len(prep.windows)} release window(s) of {prep.kind}")
     model = None
     steer = _steer_joint(prep, steer_joint)
-    if steer == "free":
-        from roboball.reduced.shell_steer import ShellSteerModel
-        model = ShellSteerModel(friction=(friction or {}).get("steer"))
-        friction = None
-        if log:
-            log(f"data: the pendulum free on its steer joint ({model.friction_source} friction)")
-    elif friction:
-        if prep.kind != "ramp":
-            raise ValueError(f"baseline friction can replace Table I only in the ramp baseline, not in {prep.kind}")
-        model = model_for("ramp", ramp_angle_deg=prep.recording.ramp_angle_deg, friction=friction)
-    d = diagnose_prepared(prep, settings=settings, log=log, model=model)
+    if steer == "unknown":
+        d = either_steer_setting(recs, prep, settings, log, (friction or {}).get("steer"))
+    else:
+        if steer == "free":
+            from roboball.reduced.shell_steer import ShellSteerModel
+            model = ShellSteerModel(friction=(friction or {}).get("steer"))
+            if log:
+                log(f"data: the pendulum free on its steer joint ({model.friction_source} friction)")
+        elif friction:
+            if prep.kind != "ramp":
+                raise ValueError(f"baseline friction can replace Table I only in the ramp baseline, not in {prep.kind}")
+            model = model_for("ramp", ramp_angle_deg=prep.recording.ramp_angle_deg, friction=friction)
+        d = diagnose_prepared(prep, settings=settings, log=log, model=model)
     if out_dir is None:
         from roboball.diagnose.locate import classify, locate
         from roboball.diagnose.contract import diagnosis_json
@@ -73,7 +77,38 @@ def diagnose(recording, out_dir=None, kind: str | None = None, pressure_kpa: flo
     return d, write(d, out_dir, drake=drake)
 
 
-STEER_JOINT = ("locked", "free")
+STEER_JOINT = ("locked", "free", "unknown")
+
+
+def either_steer_setting(recs, prep, settings, log, steer_friction: dict | None):
+    """A shell release whose steer setting was not recorded, diagnosed with the joint locked and
+    with the pendulum free; the free one is reported where its held-out RMS is lower by the keep
+    rule's margin (`Settings.cv_gain`: it fits the joint's state besides), else the locked one,
+    the contract's default.  The report's notes give both."""
+    from roboball.diagnose.data import pool, prepare
+    from roboball.diagnose.scored import Settings
+    from roboball.diagnose.select import diagnose_prepared
+    from roboball.reduced.shell_steer import ShellSteerModel
+
+    runs = {}
+    for setting in ("locked", "free"):
+        if log:
+            log(f"data: the steer joint {setting} (its setting is not recorded: both are tried)")
+        p = prep if setting == "locked" else pool([prepare(r) for r in recs])
+        model = ShellSteerModel(friction=steer_friction) if setting == "free" else None
+        runs[setting] = diagnose_prepared(p, settings=settings, log=log, model=model)
+    cv = {k: d.final.cv_rmse for k, d in runs.items()}
+    gain = (settings or Settings()).cv_gain
+    chosen = "free" if cv["free"] < (1.0 - gain) * cv["locked"] else "locked"
+    d = runs[chosen]
+    said = "; ".join(f"{k}: {' + '.join(runs[k].chosen) or 'nothing missing'}, held-out RMS {cv[k]:.4g}"
+                     for k in ("locked", "free"))
+    d.prep.notes.append(f"the steer joint's setting was not recorded (steer_joint unknown): diagnosed with it "
+                        f"locked and with the pendulum free ({said}); reported: {chosen}, "
+                        + ("its held-out RMS more than " if chosen == "free" else "the free one's held-out RMS not ")
+                        + f"{gain:.0%} below the other's")
+    d.steer_settings = {k: {"effects": list(runs[k].chosen), "rmse_heldout": cv[k]} for k in runs}
+    return d
 
 
 def _steer_joint(prep, given: str | None) -> str:
@@ -89,7 +124,7 @@ def _steer_joint(prep, given: str | None) -> str:
         where = f"{sidecar_path(rec.path) if rec.path is not None else rec.label}: field steer_joint"
     if value not in STEER_JOINT:
         raise RoboballError(f"{where}: '{value}' is not a steer setting (choose from {', '.join(STEER_JOINT)})")
-    if value == "free" and prep.kind != "shell_rock":
-        raise RoboballError(f"{where}: a free steer joint is a shell_rock setting, not one of {prep.kind}")
+    if value != "locked" and prep.kind != "shell_rock":
+        raise RoboballError(f"{where}: a {value} steer joint is a shell_rock setting, not one of {prep.kind}")
     return value
 

@@ -79,6 +79,7 @@ def details(d: Diagnosis, loc_base, loc_final) -> dict:
         "settings": vars(d.settings),
         "timings": d.timings,
         "notes": d.prep.notes,
+        "steer_settings": d.steer_settings,
     }
 
 

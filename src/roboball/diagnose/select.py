@@ -74,6 +74,8 @@ class Diagnosis:
     folds: list = field(default_factory=list)
     drop_bic: dict = field(default_factory=dict)       # effect -> BIC change of the final model without it
     alternatives: dict = field(default_factory=dict)   # effect -> equivalent explanations (equivalents.py)
+    # a shell release of unrecorded steer setting: each setting's effects and held-out RMS
+    steer_settings: dict = field(default_factory=dict)
 
     @property
     def effects(self) -> tuple:
