@@ -7,7 +7,9 @@ The recording: the virtual test bed's steer stand, 40 s long, four hand releases
 s^2/rad^2) concealed on a viscous joint (0.1 N m s/rad): a case that needs two selection
 rounds plus a final one that finds nothing more.  Timed: the whole command in a subprocess
 (start-up, reading, selection, Drake simulations of the baseline and augmented model, report
-and figures), median of `--repeats` runs.  `--real` also times the real steer-stand log (52 s).
+and figures), median of `--repeats` runs.  `--real` also times the real steer-stand log (52 s)
+and the real shell log (39 s, one release) with the pendulum free on its steer joint, as the
+pipeline diagnoses it (roboball.reduced.shell_steer).
 """
 from __future__ import annotations
 
@@ -24,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 REAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "roboball_real" / "steering_static_stand_response.csv"   # ../shared beside the checkout
+REAL_SHELL = REAL.with_name("dynamic_data.csv")
 
 
 def make(folder: Path) -> Path:
@@ -47,9 +50,9 @@ def make(folder: Path) -> Path:
     return path
 
 
-def time_one(path: Path, out: Path) -> tuple[float, dict]:
+def time_one(path: Path, out: Path, flags=()) -> tuple[float, dict]:
     t0 = time.perf_counter()
-    proc = subprocess.run([sys.executable, "-m", "roboball.cli", "diagnose", str(path), "--out", str(out)],
+    proc = subprocess.run([sys.executable, "-m", "roboball.cli", "diagnose", str(path), "--out", str(out), *flags],
                           capture_output=True, text=True)
     wall = time.perf_counter() - t0
     if proc.returncode != 0:
@@ -68,13 +71,15 @@ def main(argv=None) -> int:
         path = make(tmp)
         import pandas as pd
         t = pd.read_csv(path).time_s
-        targets = [(f"test-bed steer stand, {t.iloc[-1] - t.iloc[0]:.0f} s, 4 releases", path)]
+        targets = [(f"test-bed steer stand, {t.iloc[-1] - t.iloc[0]:.0f} s, 4 releases", path, ())]
         if args.real and REAL.exists():
-            targets.append(("real steer-stand log (52 s, 3 releases)", REAL))
-        for label, p in targets:
+            targets.append(("real steer-stand log (52 s, 3 releases)", REAL, ()))
+        if args.real and REAL_SHELL.exists():
+            targets.append(("real shell log (39 s, 1 release), pendulum free", REAL_SHELL, ("--steer-joint", "free")))
+        for label, p, flags in targets:
             walls = []
             for k in range(args.repeats):
-                wall, js = time_one(p, tmp / f"out{k}")
+                wall, js = time_one(p, tmp / f"out{k}", flags)
                 walls.append(wall)
             found = ", ".join(m["effect"] for m in js["missing_physics"]) or "nothing"
             print(f"{label}: median {statistics.median(walls):.1f} s (runs: {', '.join(f'{w:.1f}' for w in walls)}); "
