@@ -82,8 +82,10 @@ def test_steer_joint_setting_is_checked_in_one_line(tmp_path, capsys):
                                         "steer_angle_rad": 0.5 * np.cos(5.6 * np.arange(0, 8, 0.01))
                                         * np.exp(-0.2 * np.arange(0, 8, 0.01))}),
         {"kind": "steer_stand", "pressure_kpa": None}))
-    with pytest.raises(RoboballError, match="a free steer joint is a shell_rock setting, not one of steer_stand"):
-        diagnose(stand, steer_joint="free")
+    for value in ("free", "unknown"):
+        with pytest.raises(RoboballError, match=f"--steer-joint: '{value}' applies to shell_rock recordings only, "
+                                                "not to steer_stand"):
+            diagnose(stand, steer_joint=value)
     out = tmp_path / "out"
     with pytest.raises(SystemExit) as exc:
         cli_main(["diagnose", str(bad), "--out", str(out), "--steer-joint", "sideways"])

@@ -12,7 +12,8 @@ rule: BIC, held-out error, materiality, 95% intervals), select (beam search over
 effects, each effect judged against the set without it, and the verdict), equivalents (swaps
 and the equivalent explanations of the chosen effects), locate (residual by time window and
 regime), drake (the augmented model as a Drake force element and joint rotor inertia), report
-(writes the outputs: contract for diagnosis.json, markdown for report.md, figures for the PNGs).  The command is
+(writes the outputs: contract for diagnosis.json, markdown for report.md, figures for the PNGs);
+steer (a shell release's steer setting: locked, free or unknown).  The command is
 roboball.cli.diagnose; the effect library itself is roboball.physics.effects.
 """
 from __future__ import annotations
@@ -39,10 +40,11 @@ def diagnose(recording, out_dir=None, kind: str | None = None, pressure_kpa: flo
     release.  Free, the baseline is roboball.reduced.shell_steer's two-coordinate model, with the
     steer joint's unobserved release state fitted inside it.  Unknown, the recording is diagnosed
     both ways and the setting whose diagnosis predicts the held-out data better is reported
-    (`either_steer_setting`)."""
+    (roboball.diagnose.steer)."""
     from roboball.ingest.recording import Recording
     from roboball.diagnose.data import pool, prepare, read
     from roboball.diagnose.select import diagnose_prepared
+    from roboball.diagnose.steer import either_steer_setting, steer_setting
     from roboball.reduced.models import model_for
 
     items = list(recording) if isinstance(recording, (list, tuple)) else [recording]
@@ -53,7 +55,7 @@ def diagnose(recording, out_dir=None, kind: str | None = None, pressure_kpa: flo
     if log:
         log(f"data: {len(prep.windows)} release window(s) of {prep.kind}")
     model = None
-    steer = _steer_joint(prep, steer_joint)
+    steer = steer_setting(prep, steer_joint)
     if steer == "unknown":
         d = either_steer_setting(recs, prep, settings, log, (friction or {}).get("steer"))
     else:
@@ -75,56 +77,4 @@ def diagnose(recording, out_dir=None, kind: str | None = None, pressure_kpa: flo
         return d, js
     from roboball.diagnose.report import write
     return d, write(d, out_dir, drake=drake)
-
-
-STEER_JOINT = ("locked", "free", "unknown")
-
-
-def either_steer_setting(recs, prep, settings, log, steer_friction: dict | None):
-    """A shell release whose steer setting was not recorded, diagnosed with the joint locked and
-    with the pendulum free; the free one is reported where its held-out RMS is lower by the keep
-    rule's margin (`Settings.cv_gain`: it fits the joint's state besides), else the locked one,
-    the contract's default.  The report's notes give both."""
-    from roboball.diagnose.data import pool, prepare
-    from roboball.diagnose.scored import Settings
-    from roboball.diagnose.select import diagnose_prepared
-    from roboball.reduced.shell_steer import ShellSteerModel
-
-    runs = {}
-    for setting in ("locked", "free"):
-        if log:
-            log(f"data: the steer joint {setting} (its setting is not recorded: both are tried)")
-        p = prep if setting == "locked" else pool([prepare(r) for r in recs])
-        model = ShellSteerModel(friction=steer_friction) if setting == "free" else None
-        runs[setting] = diagnose_prepared(p, settings=settings, log=log, model=model)
-    cv = {k: d.final.cv_rmse for k, d in runs.items()}
-    gain = (settings or Settings()).cv_gain
-    chosen = "free" if cv["free"] < (1.0 - gain) * cv["locked"] else "locked"
-    d = runs[chosen]
-    said = "; ".join(f"{k}: {' + '.join(runs[k].chosen) or 'nothing missing'}, held-out RMS {cv[k]:.4g}"
-                     for k in ("locked", "free"))
-    d.prep.notes.append(f"the steer joint's setting was not recorded (steer_joint unknown): diagnosed with it "
-                        f"locked and with the pendulum free ({said}); reported: {chosen}, "
-                        + ("its held-out RMS more than " if chosen == "free" else "the free one's held-out RMS not ")
-                        + f"{gain:.0%} below the other's")
-    d.steer_settings = {k: {"effects": list(runs[k].chosen), "rmse_heldout": cv[k]} for k in runs}
-    return d
-
-
-def _steer_joint(prep, given: str | None) -> str:
-    """The shell release's steer setting: the argument, else the sidecar's `steer_joint`, else
-    locked; a one-line error for another value, or for "free" on a recording that is no shell release."""
-    from roboball.errors import RoboballError
-    rec = prep.recording
-    value = given if given is not None else rec.meta.get("steer_joint", "locked")
-    if given is not None:
-        where = "--steer-joint"
-    else:
-        from roboball.ingest.sidecar import sidecar_path
-        where = f"{sidecar_path(rec.path) if rec.path is not None else rec.label}: field steer_joint"
-    if value not in STEER_JOINT:
-        raise RoboballError(f"{where}: '{value}' is not a steer setting (choose from {', '.join(STEER_JOINT)})")
-    if value != "locked" and prep.kind != "shell_rock":
-        raise RoboballError(f"{where}: a {value} steer joint is a shell_rock setting, not one of {prep.kind}")
-    return value
 
