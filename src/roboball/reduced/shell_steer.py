@@ -140,27 +140,34 @@ class ShellSteerModel(ReducedModel):
         return Q, V
 
     def equations(self, extra):
-        """accel(phi, theta, phi', theta') -> (phi'', theta'') for a batch."""
+        """accel(phi, theta, phi', theta') -> (phi'', theta'') for a batch: the module docstring's
+        equations with each body's first moments m (c_y, c_z) folded in, and w_y = -u_z, |u| = d
+        (fewer array operations per call: this is the diagnosis's inner loop)."""
         mA, yA, zA, iA = self.a
         mB, yB, zB, iB = self.b
         R, g, rest = self.radius, self.g, self.rest
         mj = self.majd
-        m22 = mB * (yB * yB + zB * zB) + iB + self.delta_i     # a geared joint's J N^2 on its own diagonal
+        f_w, f_c, sigma, omega_c, n = mj["f_w"], mj["f_c"], mj["sigma"], mj["omega_c"], mj["n"]
+        ay, az, by, bz = mA * yA, mA * zA, mB * yB, mB * zB
+        k11 = mA * (yA * yA + zA * zA + R * R) + mB * (yB * yB + zB * zB + R * R) + iA + iB
+        k12 = mB * (yB * yB + zB * zB) + iB
+        m22 = k12 + self.delta_i      # a geared joint's J N^2 on its own diagonal
+        majd = friction_laws.majd
 
         def accel(ph, th, v, w):
             ca, sa = np.cos(ph), np.sin(ph)
             ab = ph + th
             cb, sb = np.cos(ab), np.sin(ab)
-            # u = dP/da, w = d2P/da2 (y: horizontal, z: up)
-            uAy, uAz = -yA * sa - zA * ca, yA * ca - zA * sa
-            uBy, uBz = -yB * sb - zB * cb, yB * cb - zB * sb
-            wAy, wBy = -yA * ca + zA * sa, -yB * cb + zB * sb
-            rAy, rBy = uAy - R, uBy - R
-            m11 = mA * (rAy * rAy + uAz * uAz) + iA + mB * (rBy * rBy + uBz * uBz) + iB
-            m12 = mB * (rBy * uBy + uBz * uBz) + iB
+            # m u_y and m u_z of each body (u = dP/da; y horizontal, z up)
+            pA = -(ay * sa + az * ca)
+            qA = ay * ca - az * sa
+            pB = -(by * sb + bz * cb)
+            qB = by * cb - bz * sb
+            m11 = k11 - 2.0 * R * (pA + pB)
+            m12 = k12 - R * pB
             vb = v + w
-            f1 = R * (mA * wAy * v * v + mB * wBy * vb * vb) - g * (mA * uAz + mB * uBz)
-            f2 = friction_laws.majd(w, mj["f_w"], mj["f_c"], mj["sigma"], mj["omega_c"], mj["n"]) - g * mB * uBz
+            f1 = -(qA * (R * v * v + g) + qB * (R * vb * vb + g))
+            f2 = majd(w, f_w, f_c, sigma, omega_c, n) - g * qB
             if extra is not None:
                 f1 = extra(ph - rest, v, f1)
             det = m11 * m22 - m12 * m12
@@ -171,23 +178,28 @@ class ShellSteerModel(ReducedModel):
 
 def integrate(model: ShellSteerModel, extra, q0, th0, w0, n_steps: int, dt: float):
     """Explicit midpoint (as roboball.reduced.integrate.midpoint) on the two coordinates; returns
-    the pipe angle, its rate, the steer joint angle and its rate at every step, (n_steps + 1, B) each.  Majd's slope at zero speed (f_w + f_c / omega_c,
-    4.7 N m s/rad for Table I) over the joint's inertia keeps the step well inside the
-    explicit method's stability limit at 2 ms."""
+    the pipe angle, its rate, the steer joint angle and its rate at every step, (n_steps + 1, B)
+    each.  Majd's slope at zero speed (f_w + f_c / omega_c, 4.7 N m s/rad for Table I) over the
+    joint's inertia keeps the step well inside the explicit method's stability limit at 2 ms."""
     accel = model.equations(extra)
     B = q0.shape[0]
     Q, V, TH, W = (np.empty((n_steps + 1, B)) for _ in range(4))
-    ph, th = q0.copy(), th0.copy()
-    v, w = np.zeros(B), w0.copy()
+    ph, th = q0.astype(float).copy(), th0.astype(float).copy()
+    v, w = np.zeros(B), w0.astype(float).copy()
     Q[0], V[0], TH[0], W[0] = ph, v, th, w
     h2 = 0.5 * dt
     for k in range(1, n_steps + 1):
         a1, b1 = accel(ph, th, v, w)
-        vm, wm = v + h2 * a1, w + h2 * b1
+        vm = v + h2 * a1
+        wm = w + h2 * b1
         a2, b2 = accel(ph + h2 * v, th + h2 * w, vm, wm)
-        ph = ph + dt * vm
-        th = th + dt * wm
-        v = v + dt * a2
-        w = w + dt * b2
+        vm *= dt
+        ph += vm
+        wm *= dt
+        th += wm
+        a2 *= dt
+        v += a2
+        b2 *= dt
+        w += b2
         Q[k], V[k], TH[k], W[k] = ph, v, th, w
     return Q, V, TH, W
