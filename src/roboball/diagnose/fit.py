@@ -402,13 +402,21 @@ class Engine:
         """The candidate values of lowest cost over the problem's samples (one batched run)."""
         used = [w for w, m in prob.masks.items() if np.any(m)]
         outs = self.predict([(v, w) for v in candidates for w in used])
-        costs = np.zeros(len(candidates))
-        with np.errstate(over="ignore"):
-            for i, (y, _) in enumerate(outs):
-                w = used[i % len(used)]
-                costs[i // len(used)] += float(np.sum((y - self.windows[w].y)[prob.masks[w]] ** 2))
-        costs[~np.isfinite(costs)] = np.inf
+        costs = self._costs(outs, 0, len(candidates), used, prob)
         return dict(candidates[int(np.argmin(costs))])
+
+    def _costs(self, outs, start: int, n: int, used: list, prob: Problem) -> np.ndarray:
+        """Cost over the problem's samples of each of `n` candidates whose runs, window by window
+        (`used`), sit in `outs` from `start`; a run sent far off (finite but ~1e160) or to NaN
+        costs inf, which argmin skips."""
+        costs = np.zeros(n)
+        with np.errstate(over="ignore"):
+            for i in range(n * len(used)):
+                w = used[i % len(used)]
+                m = prob.masks[w]
+                costs[i // len(used)] += float(np.sum((outs[start + i][0] - self.windows[w].y)[m] ** 2))
+        costs[~np.isfinite(costs)] = np.inf
+        return costs
 
     def best_starts(self, probs_effects):
         """Best grid start of each (problem, effect, base) in one batched simulation.
@@ -440,14 +448,7 @@ class Engine:
         outs = self.predict(all_items)
         best = []
         for start, cands, used, prob in spans:
-            costs = np.zeros(len(cands))
-            # a start that sends the model far off (finite but ~1e160) costs inf, which argmin skips
-            with np.errstate(over="ignore"):
-                for i in range(len(cands) * len(used)):
-                    w = used[i % len(used)]
-                    m = prob.masks[w]
-                    costs[i // len(used)] += float(np.sum((outs[start + i][0] - self.windows[w].y)[m] ** 2))
-            costs[~np.isfinite(costs)] = np.inf       # argmin would pick a NaN
+            costs = self._costs(outs, start, len(cands), used, prob)
             j = int(np.argmin(costs))
             best.append(dict(cands[j], _cost=float(costs[j])))
         return best
