@@ -5,6 +5,7 @@ recorded) the free baseline's diagnosis fits where the locked one cannot."""
 import json
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from roboball.cli.main import main as cli_main
@@ -37,7 +38,6 @@ def _free_release(tmp_path, meta_extra=None, k=50.0, c=8.0, steer0=-0.4, rate0=-
     hold = np.arange(0.0, 1.0, 0.01)
     data = {"time_s": np.concatenate([hold, t + 1.0]),
             "pipe_angle_rad": np.concatenate([0.35 + rng.normal(0.0, 5e-4, len(hold)), y])}
-    import pandas as pd
     path = tmp_path / "free.csv"
     write_recording(path, Recording(pd.DataFrame(data), {"kind": "shell_rock", "pressure_kpa": 13.8,
                                                          **(meta_extra or {})}))
@@ -78,7 +78,7 @@ def test_steer_joint_setting_is_checked_in_one_line(tmp_path, capsys):
         diagnose(bad)
     stand = tmp_path / "stand.csv"
     write_recording(stand, Recording(
-        __import__("pandas").DataFrame({"time_s": np.arange(0, 8, 0.01),
+        pd.DataFrame({"time_s": np.arange(0, 8, 0.01),
                                         "steer_angle_rad": 0.5 * np.cos(5.6 * np.arange(0, 8, 0.01))
                                         * np.exp(-0.2 * np.arange(0, 8, 0.01))}),
         {"kind": "steer_stand", "pressure_kpa": None}))

@@ -32,7 +32,8 @@ def diagnose_recording(recording: list, out_dir: str, friction_steer: str = "", 
     one experiment together: diagnosis.json, report.md, predictions.csv and the figures in
     `out_dir`.  With fitted friction (the pipeline's Majd fits) the ramp baseline is the paper's
     point model as the pipeline calibrates it, instead of the contract's Table I friction.
-    `steer_joint` ("locked", "free"; empty: the sidecar's, else locked): a shell release's steer setting."""
+    `steer_joint` ("locked", "free", "unknown"; empty: the sidecar's, else locked): a shell release's
+    steer setting (roboball.diagnose.steer)."""
     from roboball.diagnose import diagnose
     from roboball.identify.friction.fitted import read_joint_friction
 

@@ -61,13 +61,13 @@ class ReducedModel:
     hidden_release: tuple = ()
     # rounds of the diagnosis's search run even when a round keeps nothing (roboball.diagnose.select)
     search_rounds: int = 1
+    ts_bound: float = 0.1      # s: how far the fitted release instant may move from the finder's
+    context: dict = {}
+    description: str = ""
 
     def hidden_starts(self) -> list:
         """Starting points ({name: value}) of the hidden release states' fits."""
         return [{h.name: h.start for h in self.hidden_release}] if self.hidden_release else []
-    ts_bound: float = 0.1      # s: how far the fitted release instant may move from the finder's
-    context: dict = {}
-    description: str = ""
 
     def effect_torque(self, q, v, P: dict, active: list):
         """Sum of the active effects' torques (NumPy laws, batch arrays)."""

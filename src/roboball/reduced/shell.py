@@ -31,13 +31,7 @@ class ShellModel(ReducedModel):
     def __init__(self, robot: RobotFacts | None = None):
         robot = robot or load_robot()
         self.kind = "shell_rock"
-        links = robot.links
-        m = sum(l.mass_kg for l in links.values())
-        yc = sum(l.mass_kg * l.com_m[1] for l in links.values()) / m
-        zc = sum(l.mass_kg * l.com_m[2] for l in links.values()) / m
-        i_c = 0.0
-        for l in links.values():
-            i_c += l.inertia_kg_m2[0] + l.mass_kg * ((l.com_m[1] - yc) ** 2 + (l.com_m[2] - zc) ** 2)
+        m, yc, zc, i_c = composite(robot.links, tuple(robot.links))
         self.mass, self.i_com = m, i_c
         self.radius = rolling_radius(robot)
         self.d = math.hypot(yc, zc)
@@ -81,6 +75,19 @@ class ShellModel(ReducedModel):
         Q, V = midpoint(accel, q0, np.zeros_like(q0), n_steps, dt)
         Q += self.rest
         return Q, V
+
+
+def composite(links, names) -> tuple:
+    """Mass (kg), centre of mass (y, z; m) and roll inertia about it (kg m^2) of the links
+    `names` moving as one body."""
+    m = sum(links[n].mass_kg for n in names)
+    yc = sum(links[n].mass_kg * links[n].com_m[1] for n in names) / m
+    zc = sum(links[n].mass_kg * links[n].com_m[2] for n in names) / m
+    i_c = 0.0
+    for n in names:
+        link = links[n]
+        i_c += link.inertia_kg_m2[0] + link.mass_kg * ((link.com_m[1] - yc) ** 2 + (link.com_m[2] - zc) ** 2)
+    return m, yc, zc, i_c
 
 
 _ROLLING_RADIUS: dict = {}

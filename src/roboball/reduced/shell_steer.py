@@ -23,8 +23,8 @@ so with u(a) = dP/da and w(a) = d^2P/da^2 (|u| is constant: u . w = 0) Lagrange'
     M11 = sum_i m_i |r + u_i|^2 + I_A + I_B,  M12 = m_B (r + u_B) . u_B + I_B,  M22 = m_B |u_B|^2 + I_B,
     h_1 = -R (m_A w_A,y phi'^2 + m_B w_B,y (phi' + theta')^2),  h_2 = 0,
     g_q = g (m_A u_A,z + m_B u_B,z,  m_B u_B,z),   r = (-R, 0).
-With theta held at zero it is roboball.reduced.shell.ShellModel's equation (a test checks it);
-`tests/reduced/test_shell_steer_vs_drake.py` checks it against Drake's coupled scenario.
+With theta held at zero it is roboball.reduced.shell.ShellModel's equation;
+`tests/reduced/test_shell_steer.py` checks that, and the model against Drake's coupled scenario.
 """
 from __future__ import annotations
 
@@ -35,7 +35,7 @@ import numpy as np
 from roboball.config import RobotFacts, load_robot
 from roboball.physics import friction as friction_laws
 from roboball.reduced.base import DT, BaseParam, ReducedModel, active_effects
-from roboball.reduced.shell import rolling_radius
+from roboball.reduced.shell import composite, rolling_radius
 
 # The steer joint's state at the release: a free pendulum is seldom at rest when the shell turns
 # (the joint limits of the robot facts bound the angle; a hand-held release swings below 8 rad/s)
@@ -49,16 +49,6 @@ START_AMPLITUDES = (0.15, 0.4, 0.8)
 START_PHASES = 8
 
 
-def _body(links, names):
-    """Mass, centre of mass (y, z) and roll inertia about it of links moving as one body."""
-    m = sum(links[n].mass_kg for n in names)
-    cy = sum(links[n].mass_kg * links[n].com_m[1] for n in names) / m
-    cz = sum(links[n].mass_kg * links[n].com_m[2] for n in names) / m
-    i = sum(links[n].inertia_kg_m2[0] + links[n].mass_kg * ((links[n].com_m[1] - cy) ** 2 + (links[n].com_m[2] - cz) ** 2)
-            for n in names)
-    return m, cy, cz, i
-
-
 class ShellSteerModel(ReducedModel):
     """The robot rolling without slipping with the pendulum free on its steer joint."""
 
@@ -66,7 +56,7 @@ class ShellSteerModel(ReducedModel):
     hidden_release = HIDDEN_RELEASE
     # With the steer joint's state free, no single shell effect fits a release that needs a
     # stiffness and a damping together: on the real dynamic log each alone reaches 0.07-0.08 rad
-    # (20 starts each), the pair 0.006; so pairs are searched even when no single effect is kept.
+    # (20 starts each), the stiffness and damping pair 0.012; so pairs are searched even when no single effect is kept.
     search_rounds = 2
 
     def __init__(self, robot: RobotFacts | None = None, friction: dict | None = None):
@@ -78,8 +68,8 @@ class ShellSteerModel(ReducedModel):
         self.signal = "pipe_angle_rad"
         self.dof = "roll"
         L = robot.links
-        self.a = _body(L, ("pipe_assembly", "pitch_center"))
-        self.b = _body(L, ("pendulum",))
+        self.a = composite(L, ("pipe_assembly", "pitch_center"))
+        self.b = composite(L, ("pendulum",))
         self.radius = rolling_radius(robot)
         self.g = robot.g
         if friction:
@@ -119,11 +109,12 @@ class ShellSteerModel(ReducedModel):
         at its joint's rest and swinging about it (`START_AMPLITUDES` x `START_PHASES`), with
         the rate of its small-swing frequency on the stand (the robot facts)."""
         w = self.omega_steer
+        angle = HIDDEN_RELEASE[0]
         out = [{"steer_angle": self.steer_rest, "steer_rate": 0.0}]
         for a in START_AMPLITUDES:
             for k in range(START_PHASES):
                 ph = 2.0 * math.pi * k / START_PHASES
-                out.append({"steer_angle": float(np.clip(self.steer_rest + a * math.cos(ph), -1.5, 1.0)),
+                out.append({"steer_angle": float(np.clip(self.steer_rest + a * math.cos(ph), angle.lo, angle.hi)),
                             "steer_rate": float(-a * w * math.sin(ph))})
         return out
 
@@ -132,8 +123,9 @@ class ShellSteerModel(ReducedModel):
         released from P['steer_angle'], P['steer_rate'] (zero where absent)."""
         q0 = np.asarray(q0, dtype=float)
         B = q0.shape[0]
-        th0 = np.broadcast_to(np.asarray(P.get("steer_angle", 0.0), dtype=float), (B,)).copy()
-        w0 = np.broadcast_to(np.asarray(P.get("steer_rate", 0.0), dtype=float), (B,)).copy()
+        # integrate copies its starts
+        th0 = np.broadcast_to(np.asarray(P.get("steer_angle", 0.0), dtype=float), (B,))
+        w0 = np.broadcast_to(np.asarray(P.get("steer_rate", 0.0), dtype=float), (B,))
         active = active_effects(P, self.candidates)
         extra = self.bind_effects(P, active) if active else None
         Q, V, _, _ = integrate(self, extra, q0, th0, w0, n_steps, dt)
