@@ -123,6 +123,30 @@ def test_read_joint_friction_keeps_each_file_on_its_joint_and_leaves_out_empty_p
     assert read_joint_friction("", "") == {} and read_joint_friction() == {}
 
 
+def test_diagnosis_friction_keeps_the_steer_fits_rotor_inertia_for_a_free_joint_only(tmp_path):
+    """`roboball diagnose --friction-steer FIT` reads the stand fit's reflected rotor inertia
+    delta_i with its Majd parameters: a free steer joint carries it (as the coupled scenario
+    does); the ramp baseline reads the Majd parameters only, so its friction is unchanged."""
+    from roboball.identify.friction.fitted import read_diagnosis_friction
+    from roboball.reduced.models import model_for
+    from roboball.reduced.shell_steer import ShellSteerModel
+
+    fit = {"law": "majd", "parameters": {k: {"median": v} for k, v in {**FITTED["steer"], "delta_i": 0.057}.items()}}
+    steer, drive = tmp_path / "steer.json", tmp_path / "drive.json"
+    steer.write_text(json.dumps(fit))
+    drive.write_text(json.dumps(FITTED["drive"]))
+    friction = read_diagnosis_friction(str(steer), str(drive))
+    assert friction == {"steer": {**FITTED["steer"], "delta_i": 0.057}, "drive": FITTED["drive"]}
+    assert read_diagnosis_friction("", "") == {}
+    assert ShellSteerModel(friction=friction["steer"]).delta_i == 0.057
+    assert ShellSteerModel(friction=FITTED["steer"]).delta_i == 0.0
+    assert model_for("ramp", friction=friction).friction_params == FITTED
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps({"law": "majd", "parameters": {**fit["parameters"], "delta_i": {"median": "x"}}}))
+    with pytest.raises(RoboballError, match="bad.json: parameter 'delta_i'"):
+        read_diagnosis_friction(str(bad))
+
+
 def test_pooled_ramp_runs_against_fitted_friction_name_the_rolling_resistance():
     """The test bed's membrane shell (docs/testbed.md) resists the start of a ramp run with the
     flat it sat on and loses a little to its skin's hysteresis, past its loss peak at ramp speeds.

@@ -131,7 +131,7 @@ def cmd_diagnose_coupled(args) -> int:
 def cmd_diagnose(args) -> int:
     from roboball.diagnose import diagnose
     from roboball.diagnose.scored import Settings
-    from roboball.identify.friction.fitted import read_joint_friction
+    from roboball.identify.friction.fitted import read_diagnosis_friction
 
     t0 = time.perf_counter()
     for path in args.recording:
@@ -140,7 +140,7 @@ def cmd_diagnose(args) -> int:
     output_folder(args.out, create=False)
     if _is_coupled(args):
         return cmd_diagnose_coupled(args)
-    friction = read_joint_friction(args.friction_steer, args.friction_drive)
+    friction = read_diagnosis_friction(args.friction_steer, args.friction_drive)
     label = " + ".join(args.recording)
     progress = Progress(label, verbose=args.verbose)
     try:
@@ -175,7 +175,8 @@ def _register(sub):
                         "diagnoses both and reports the one that predicts held-out data better")
     p.add_argument("--friction-steer", default=None, metavar="FIT.json",
                    help="ramp baseline, or shell_rock with --steer-joint free: Majd steer friction from a fit "
-                        "(roboball's fit JSON; default: Table I); "
+                        "(roboball's fit JSON; a free steer joint also takes the fit's rotor inertia delta_i; "
+                        "default: Table I); "
                         f"steer_coupled baseline: the stand fit with its delta_i (default: {COUPLED_FRICTION})")
     p.add_argument("--regression", default=COUPLED_REGRESSION, metavar="CSV",
                    help=f"steer_coupled baseline: the shell regression zeta(p), omega_n(p) (default: {COUPLED_REGRESSION})")

@@ -28,8 +28,9 @@ def diagnose(recording, out_dir=None, kind: str | None = None, pressure_kpa: flo
     roboball.diagnose.data.pool).
 
     `friction` replaces the ramp baseline's (or a free steer joint's) Table I joint friction ({"steer": {...}, "drive":
-    {...}} Majd parameters, e.g. from roboball.identify.friction.results.read_friction): the pipeline diagnoses the paper's point
-    model with the friction fitted on the stand logs.
+    {...}} Majd parameters, e.g. from roboball.identify.friction.fitted.read_diagnosis_friction): the pipeline diagnoses the
+    paper's point model with the friction fitted on the stand logs.  A free steer joint also takes the steer fit's
+    reflected rotor inertia `delta_i` (kg m^2); the ramp baseline reads the Majd parameters only.
 
     Returns (Diagnosis, diagnosis.json content).  With `out_dir`, writes diagnosis.json,
     report.md, details.json and the figures there (the Drake simulations of the baseline and

@@ -360,7 +360,8 @@ class Engine:
         p.iterations += 1
         if p.max_iter is not None and p.iterations >= p.max_iter:
             p.converged = True
-        rss = float(r @ r)
+        with np.errstate(over="ignore", invalid="ignore"):   # a diverged trial step: rejected below
+            rss = float(r @ r)
         if not math.isfinite(rss):
             rss = math.inf
         if verbose:

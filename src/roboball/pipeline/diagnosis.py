@@ -35,9 +35,9 @@ def diagnose_recording(recording: list, out_dir: str, friction_steer: str = "", 
     `steer_joint` ("locked", "free", "unknown"; empty: the sidecar's, else locked): a shell release's
     steer setting (roboball.diagnose.steer)."""
     from roboball.diagnose import diagnose
-    from roboball.identify.friction.fitted import read_joint_friction
+    from roboball.identify.friction.fitted import read_diagnosis_friction
 
-    diagnose(recording, out_dir=out_dir, friction=read_joint_friction(friction_steer, friction_drive) or None,
+    diagnose(recording, out_dir=out_dir, friction=read_diagnosis_friction(friction_steer, friction_drive) or None,
              steer_joint=steer_joint or None)
 
 

@@ -38,6 +38,17 @@ def read_joint_friction(steer=None, drive=None) -> dict:
     return {joint: read_friction(path) for joint, path in (("steer", steer), ("drive", drive)) if path}
 
 
+def read_diagnosis_friction(steer=None, drive=None) -> dict:
+    """What `roboball diagnose` takes as its baselines' friction: `read_joint_friction`, with the
+    steer fit's reflected rotor inertia `delta_i` kept (`read_stand_friction`).  The ramp baseline
+    reads the Majd parameters only; a shell release with the pendulum free puts delta_i on the
+    steer joint (roboball.reduced.shell_steer), as the coupled scenario does."""
+    out = read_joint_friction(None, drive)
+    if steer:
+        out["steer"] = read_stand_friction(steer)
+    return out
+
+
 def read_stand_friction(path) -> dict:
     """The steer stand's calibrated fit as a Drake scenario runs it: the Majd parameters
     (`read_friction`) and, when the fit has one, its reflected rotor inertia `delta_i` (kg m^2;
