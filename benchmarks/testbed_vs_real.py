@@ -25,7 +25,9 @@ log's pendulum was free.
 
 `--scan` also varies the bedliner's two calibrated numbers (set tension, hysteresis loss peak)
 and adds a linear roll stiffness about the rest (the test bed's own `conceal`) at 6.9 and
-13.8 kPa.  About 1 min (7 min with --scan).
+13.8 kPa, and moves the pipe assembly's centre of mass sideways (along its own y axis, the
+steer direction's lever) at 6.9-13.8 kPa: an imbalance that shifts the shell's rest, which the
+pipeline's coupled diagnosis names (`com_offset`).  About 1 min (8 min with --scan).
 """
 from __future__ import annotations
 
@@ -44,6 +46,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "src"))
 REAL = ROOT.parent / "shared" / "data" / "roboball_real"
 
+from roboball.config import RobotFacts  # noqa: E402
 from roboball.diagnose.coupled import read_repeats, rms  # noqa: E402
 from roboball.identify.shell.damped_sine import fit_damped_sine  # noqa: E402
 from roboball.reduced.shell import ShellModel  # noqa: E402
@@ -55,15 +58,24 @@ from roboball.testbed.run import truth_spec  # noqa: E402
 SCAN_TENSION_N_M = (1200.0, 5000.0, 50000.0)
 SCAN_LOSS_PEAK = (0.4, 0.2, 0.05)
 SCAN_STIFFNESS_N_M_RAD = (30.0, 60.0)
+SCAN_PIPE_COM_Y_M = (-0.01, -0.02, -0.03)
 REAL_SHELL_DIAGNOSIS = ROOT / "results" / "diagnose" / "real_shell_rock" / "diagnosis.json"
 RELEASE_RAD, RECON_S, RECON_DT_S = -0.40, 9.0, 1e-3
 
 
-def testbed_run(truth: dict, p_kpa: float, rep, extra_terms=()) -> dict:
+def testbed_run(truth: dict, p_kpa: float, rep, extra_terms=(), robot=None) -> dict:
     """The test bed's coupled release at p_kpa from the repeat's first sample."""
-    spec = truth_spec("shell_rock", p_kpa, truth, release=float(rep.pipe[0]), extra_terms=extra_terms)
+    spec = truth_spec("shell_rock", p_kpa, truth, release=float(rep.pipe[0]), extra_terms=extra_terms, robot=robot)
     spec = dataclasses.replace(spec, kind="steer_coupled")    # the clamp off: pendulum free
     return predict(spec, rep.t, float(rep.pipe[0]), float(rep.steer[0]), rates0=rep.release_rates())
+
+
+def pipe_moved(truth: dict, dy_m: float) -> RobotFacts:
+    """The test bed's robot with the pipe assembly's centre of mass moved by dy_m along its y."""
+    data = copy.deepcopy(true_robot(truth).data)
+    com = data["links"]["pipe_assembly"]["com_m"]
+    data["links"]["pipe_assembly"]["com_m"] = [com[0], com[1] + dy_m, com[2]]
+    return RobotFacts(data, source=f"test bed, pipe assembly's centre of mass moved {dy_m} m")
 
 
 def locked_release(effects: dict) -> tuple[float, float]:
@@ -140,6 +152,18 @@ def main() -> int:
                     e = [rms(pr, rep)["pipe_angle_rad"] for pr, rep in zip(preds, reps)]
                     mx = [pr["pipe_angle_rad"].max() for pr in preds]
                     print(f"{p} | {k:.0f} | {peak} | {np.round(e, 3).tolist()} | {np.round(mx, 3).tolist()}", flush=True)
+        print("pipe assembly's centre of mass moved: p (kPa) | dy (m) | RMS pipe / steer per repeat | "
+              "largest pipe angle per repeat | last pipe angle per repeat (real: "
+              + ", ".join(f"{r.pipe[-1]:+.3f}" for r in reps) + ")")
+        for p in (6.9, 10.3, 13.8):
+            for dy in SCAN_PIPE_COM_Y_M:
+                robot = pipe_moved(truth, dy)
+                preds = [testbed_run(truth, p, rep, robot=robot) for rep in reps]
+                e = [f"{rms(pr, rep)['pipe_angle_rad']:.3f} / {rms(pr, rep)['steer_angle_rad']:.3f}"
+                     for pr, rep in zip(preds, reps)]
+                mx = [pr["pipe_angle_rad"].max() for pr in preds]
+                last = [pr["pipe_angle_rad"][-1] for pr in preds]
+                print(f"{p} | {dy} | {', '.join(e)} | {np.round(mx, 3).tolist()} | {np.round(last, 3).tolist()}", flush=True)
     return 0
 
 
