@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import argparse
 import copy
-import dataclasses
 import json
 import sys
 import time
@@ -50,10 +49,9 @@ from roboball.config import RobotFacts  # noqa: E402
 from roboball.diagnose.coupled import read_repeats, rms  # noqa: E402
 from roboball.identify.shell.damped_sine import fit_damped_sine  # noqa: E402
 from roboball.reduced.shell import ShellModel  # noqa: E402
-from roboball.sim.coupled import predict  # noqa: E402
 from roboball.testbed.effects import conceal  # noqa: E402
 from roboball.testbed.physics import load_truth, true_robot  # noqa: E402
-from roboball.testbed.run import truth_spec  # noqa: E402
+from roboball.testbed.run import coupled_release  # noqa: E402
 
 SCAN_TENSION_N_M = (1200.0, 5000.0, 50000.0)
 SCAN_LOSS_PEAK = (0.4, 0.2, 0.05)
@@ -65,9 +63,8 @@ RELEASE_RAD, RECON_S, RECON_DT_S = -0.40, 9.0, 1e-3
 
 def testbed_run(truth: dict, p_kpa: float, rep, extra_terms=(), robot=None) -> dict:
     """The test bed's coupled release at p_kpa from the repeat's first sample."""
-    spec = truth_spec("shell_rock", p_kpa, truth, release=float(rep.pipe[0]), extra_terms=extra_terms, robot=robot)
-    spec = dataclasses.replace(spec, kind="steer_coupled")    # the clamp off: pendulum free
-    return predict(spec, rep.t, float(rep.pipe[0]), float(rep.steer[0]), rates0=rep.release_rates())
+    return coupled_release(p_kpa, rep.t, rep.pipe[0], rep.steer[0], rep.release_rates(), truth=truth,
+                           robot=robot, extra_terms=extra_terms)
 
 
 def pipe_moved(truth: dict, dy_m: float) -> RobotFacts:

@@ -1,11 +1,13 @@
 """Run one experiment on the virtual robot (dense, noiseless; sensors are applied later)."""
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
 
 from roboball.physics import shell as shell_laws
+from roboball.sim.coupled import predict
 from roboball.sim.scenarios import simulate
 from roboball.sim.spec import ShellParams, SimSpec
 from roboball.testbed.physics import load_truth, lugre_system, shell_truth_systems, true_robot
@@ -69,6 +71,19 @@ def run_free(kind: str, release: float, duration: float, p_kpa=None, truth=None,
     df, x = simulate(spec, release, duration, sample_rate_hz=truth["simulation"]["sample_rate_hz"],
                      return_states=True)
     return df, x, spec
+
+
+def coupled_release(p_kpa: float, t, pipe0: float, steer0: float, rates0: dict | None = None, truth=None,
+                    robot=None, extra_terms=()) -> dict:
+    """The coupled steer experiment on the virtual robot: the shell_rock setting with the clamp
+    off (the pendulum free on its steer joint), released at `pipe0`, `steer0` (rad) with `rates0`
+    ({"pipe_rate", "steer_rate"} rad/s; None: at rest) and its flat set at its rest.  Both
+    coordinates at the times `t` (s, from the let-go at t[0]); the real logs of this experiment
+    are the authors' coupled repeats (benchmarks/testbed_vs_real.py)."""
+    truth = truth or load_truth()
+    spec = truth_spec("shell_rock", p_kpa, truth, release=float(pipe0), extra_terms=extra_terms, robot=robot)
+    spec = dataclasses.replace(spec, kind="steer_coupled")
+    return predict(spec, t, float(pipe0), float(steer0), rates0=rates0)
 
 
 def ramp_exit_time(df, x, spec) -> float | None:
