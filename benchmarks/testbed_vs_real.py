@@ -45,12 +45,11 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "src"))
 REAL = ROOT.parent / "shared" / "data" / "roboball_real"
 
-from roboball.config import RobotFacts  # noqa: E402
 from roboball.diagnose.coupled import read_repeats, rms  # noqa: E402
 from roboball.identify.shell.damped_sine import fit_damped_sine  # noqa: E402
 from roboball.reduced.shell import ShellModel  # noqa: E402
 from roboball.testbed.effects import conceal  # noqa: E402
-from roboball.testbed.physics import load_truth, true_robot  # noqa: E402
+from roboball.testbed.physics import load_truth, true_robot, with_com_moved  # noqa: E402
 from roboball.testbed.run import coupled_release  # noqa: E402
 
 SCAN_TENSION_N_M = (1200.0, 5000.0, 50000.0)
@@ -67,12 +66,15 @@ def testbed_run(truth: dict, p_kpa: float, rep, extra_terms=(), robot=None) -> d
                            robot=robot, extra_terms=extra_terms)
 
 
-def pipe_moved(truth: dict, dy_m: float) -> RobotFacts:
-    """The test bed's robot with the pipe assembly's centre of mass moved by dy_m along its y."""
-    data = copy.deepcopy(true_robot(truth).data)
-    com = data["links"]["pipe_assembly"]["com_m"]
-    data["links"]["pipe_assembly"]["com_m"] = [com[0], com[1] + dy_m, com[2]]
-    return RobotFacts(data, source=f"test bed, pipe assembly's centre of mass moved {dy_m} m")
+def scan_runs(truth: dict, p_kpa: float, reps, extra_terms=(), robot=None) -> tuple[list, list, list]:
+    """The test bed's coupled release from every repeat: the runs, each repeat's RMS (both
+    coordinates) and each run's largest pipe angle."""
+    preds = [testbed_run(truth, p_kpa, rep, extra_terms, robot) for rep in reps]
+    return preds, [rms(pr, rep) for pr, rep in zip(preds, reps)], [pr["pipe_angle_rad"].max() for pr in preds]
+
+
+def pipe_rms(errors: list) -> list:
+    return np.round([r["pipe_angle_rad"] for r in errors], 3).tolist()
 
 
 def locked_release(effects: dict) -> tuple[float, float]:
@@ -134,10 +136,8 @@ def main() -> int:
                 for peak in SCAN_LOSS_PEAK:
                     tr = copy.deepcopy(truth)
                     tr["shell"]["bedliner"].update(set_tension_n_m=tension, hysteresis_loss_peak=peak)
-                    preds = [testbed_run(tr, p, rep) for rep in reps]
-                    e = [rms(pr, rep)["pipe_angle_rad"] for pr, rep in zip(preds, reps)]
-                    mx = [pr["pipe_angle_rad"].max() for pr in preds]
-                    print(f"{p} | {tension:.0f} | {peak} | {np.round(e, 3).tolist()} | {np.round(mx, 3).tolist()}", flush=True)
+                    _, e, mx = scan_runs(tr, p, reps)
+                    print(f"{p} | {tension:.0f} | {peak} | {pipe_rms(e)} | {np.round(mx, 3).tolist()}", flush=True)
         print("added roll stiffness: p (kPa) | k (N m/rad) | loss peak | RMS pipe per repeat | largest pipe angle per repeat")
         for p in (6.9, 13.8):
             for k in SCAN_STIFFNESS_N_M_RAD:
@@ -145,22 +145,17 @@ def main() -> int:
                     tr = copy.deepcopy(truth)
                     tr["shell"]["bedliner"]["hysteresis_loss_peak"] = peak
                     terms, _, _ = conceal("shell_rock", {"linear_stiffness": {"k": k}}, true_robot(tr))
-                    preds = [testbed_run(tr, p, rep, terms) for rep in reps]
-                    e = [rms(pr, rep)["pipe_angle_rad"] for pr, rep in zip(preds, reps)]
-                    mx = [pr["pipe_angle_rad"].max() for pr in preds]
-                    print(f"{p} | {k:.0f} | {peak} | {np.round(e, 3).tolist()} | {np.round(mx, 3).tolist()}", flush=True)
+                    _, e, mx = scan_runs(tr, p, reps, terms)
+                    print(f"{p} | {k:.0f} | {peak} | {pipe_rms(e)} | {np.round(mx, 3).tolist()}", flush=True)
         print("pipe assembly's centre of mass moved: p (kPa) | dy (m) | RMS pipe / steer per repeat | "
               "largest pipe angle per repeat | last pipe angle per repeat (real: "
               + ", ".join(f"{r.pipe[-1]:+.3f}" for r in reps) + ")")
         for p in (6.9, 10.3, 13.8):
             for dy in SCAN_PIPE_COM_Y_M:
-                robot = pipe_moved(truth, dy)
-                preds = [testbed_run(truth, p, rep, robot=robot) for rep in reps]
-                e = [f"{rms(pr, rep)['pipe_angle_rad']:.3f} / {rms(pr, rep)['steer_angle_rad']:.3f}"
-                     for pr, rep in zip(preds, reps)]
-                mx = [pr["pipe_angle_rad"].max() for pr in preds]
+                preds, e, mx = scan_runs(truth, p, reps, robot=with_com_moved(true_robot(truth), "pipe_assembly", dy))
+                pairs = ", ".join(f"{r['pipe_angle_rad']:.3f} / {r['steer_angle_rad']:.3f}" for r in e)
                 last = [pr["pipe_angle_rad"][-1] for pr in preds]
-                print(f"{p} | {dy} | {', '.join(e)} | {np.round(mx, 3).tolist()} | {np.round(last, 3).tolist()}", flush=True)
+                print(f"{p} | {dy} | {pairs} | {np.round(mx, 3).tolist()} | {np.round(last, 3).tolist()}", flush=True)
     return 0
 
 

@@ -1,15 +1,12 @@
 """The virtual robot in the experiment the real shell-direction logs were recorded in: the
 pendulum free on its steer joint (the authors' coupled repeats; docs/testbed.md, "Against the
 real robot with its pendulum free").  Slow: 15 + 3 Drake runs of 3-5 s at the test bed's step."""
-import copy
-
 import numpy as np
 import pytest
 
 from conftest import REAL_DATA
-from roboball.config import RobotFacts
 from roboball.diagnose.coupled import read_repeats, rms
-from roboball.testbed.physics import load_truth, true_robot
+from roboball.testbed.physics import load_truth, true_robot, with_com_moved
 from roboball.testbed.run import coupled_release
 
 pytestmark = pytest.mark.slow
@@ -43,10 +40,7 @@ def test_a_2_cm_sideways_imbalance_of_the_pipe_assembly_closes_the_gap_at_10_3_k
     0.073, 0.035 rad, steer 0.099, 0.091, 0.063; largest pipe angle +0.25..+0.27 (real +0.27..+0.33);
     as built: 0.135, 0.167, 0.130 and +0.04..+0.06."""
     truth = load_truth()
-    data = copy.deepcopy(true_robot(truth).data)
-    com = data["links"]["pipe_assembly"]["com_m"]
-    data["links"]["pipe_assembly"]["com_m"] = [com[0], com[1] - 0.02, com[2]]
-    robot = RobotFacts(data, source="test bed with a sideways imbalance")
+    robot = with_com_moved(true_robot(truth), "pipe_assembly", -0.02)
     for rep in repeats:
         moved, built = _run(rep, 10.3, truth, robot), _run(rep, 10.3, truth)
         err = rms(moved, rep)

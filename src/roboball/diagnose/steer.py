@@ -22,6 +22,7 @@ def either_steer_setting(recs, prep, settings, log, steer_friction: dict | None)
     for setting in ("locked", "free"):
         if log:
             log(f"data: the steer joint {setting} (its setting is not recorded: both are tried)")
+        # each its own prep: a diagnosis writes its notes (and a fitted sensor lag) into it
         p = prep if setting == "locked" else pool([prepare(r) for r in recs])
         model = ShellSteerModel(friction=steer_friction) if setting == "free" else None
         runs[setting] = diagnose_prepared(p, settings=settings, log=log, model=model)

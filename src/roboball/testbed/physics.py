@@ -30,6 +30,15 @@ def true_robot(truth: dict, perturbed: bool = True) -> RobotFacts:
     return RobotFacts(data, source="testbed truth")
 
 
+def with_com_moved(robot: RobotFacts, link: str, dy_m: float) -> RobotFacts:
+    """The robot facts with `link`'s centre of mass moved by dy_m (m) along the link's y axis:
+    for the pipe assembly, a sideways imbalance in the steer direction."""
+    data = copy.deepcopy(robot.data)
+    com = data["links"][link]["com_m"]
+    data["links"][link]["com_m"] = [com[0], com[1] + dy_m, com[2]]
+    return RobotFacts(data, source=f"{robot.source}, {link}'s centre of mass moved {dy_m} m sideways")
+
+
 def stribeck_g(v, F_c, F_s, v_s, m=SYM):
     return F_c + (F_s - F_c) * m.exp(-(v / v_s) * (v / v_s))
 
