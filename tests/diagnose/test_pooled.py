@@ -138,6 +138,9 @@ def test_diagnosis_friction_keeps_the_steer_fits_rotor_inertia_for_a_free_joint_
     friction = read_diagnosis_friction(str(steer), str(drive))
     assert friction == {"steer": {**FITTED["steer"], "delta_i": 0.057}, "drive": FITTED["drive"]}
     assert read_diagnosis_friction("", "") == {}
+    plain = tmp_path / "plain.json"      # a plain object of Majd parameters is not a stand fit
+    plain.write_text(json.dumps({**FITTED["steer"], "delta_i": 0.057}))
+    assert read_diagnosis_friction(str(plain)) == {"steer": FITTED["steer"]}
     assert ShellSteerModel(friction=friction["steer"]).delta_i == 0.057
     assert ShellSteerModel(friction=FITTED["steer"]).delta_i == 0.0
     assert model_for("ramp", friction=friction).friction_params == FITTED

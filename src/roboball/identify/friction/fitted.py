@@ -17,13 +17,24 @@ def read_friction(path) -> dict:
     of any parameters the fit held fixed) or a plain JSON object {f_w, f_c, sigma, omega_c, n};
     a one-line error names the file and what is wrong."""
     path = Path(path)
+    return _majd_parameters(path, _estimate(path)[0])
+
+
+def _estimate(path: Path) -> tuple[dict, bool]:
+    """The file's point estimate (a fit's posterior medians and fixed values, or the plain object)
+    and whether it came from a fit."""
     d = read_json(path)
-    if is_fit(d) and isinstance(d["parameters"], dict):
+    fitted = is_fit(d) and isinstance(d["parameters"], dict)
+    if fitted:
         if d.get("law") not in (None, "majd"):
             raise RoboballError(f"{path}: a fit of the {d.get('law')} law, not Majd's")
         d = point_estimate(d)
     if not isinstance(d, dict):
         raise RoboballError(f"{path}: expected a JSON object of Majd parameters")
+    return d, fitted
+
+
+def _majd_parameters(path: Path, d: dict) -> dict:
     out = {}
     for k in friction_laws.PARAMS["majd"]:
         v = d.get(k)
@@ -53,12 +64,12 @@ def read_stand_friction(path) -> dict:
     """The steer stand's calibrated fit as a Drake scenario runs it: the Majd parameters
     (`read_friction`) and, when the fit has one, its reflected rotor inertia `delta_i` (kg m^2;
     the calibrated stand's added inertia, which belongs to the joint wherever the joint moves)."""
-    out = read_friction(path)
-    d = read_json(Path(path))
-    if is_fit(d) and isinstance(d["parameters"], dict):
-        delta = point_estimate(d).get("delta_i")
-        if delta is not None:
-            if isinstance(delta, bool) or not isinstance(delta, (int, float)) or delta != delta:
-                raise RoboballError(f"{path}: parameter 'delta_i' is {delta!r}, not a number")
-            out["delta_i"] = float(delta)
+    path = Path(path)
+    d, fitted = _estimate(path)
+    out = _majd_parameters(path, d)
+    delta = d.get("delta_i") if fitted else None    # a plain object's Majd parameters only
+    if delta is not None:
+        if isinstance(delta, bool) or not isinstance(delta, (int, float)) or delta != delta:
+            raise RoboballError(f"{path}: parameter 'delta_i' is {delta!r}, not a number")
+        out["delta_i"] = float(delta)
     return out
