@@ -96,7 +96,7 @@ def drake_spec(prep: Prepared, model: ReducedModel, values: dict, effects, dt: f
                        added_inertia={joint: added} if added else {})
     if added:
         raise ValueError(f"no added inertia on the {kind} coordinate in Drake (no joint actuator there)")
-    if kind == "shell_rock" and getattr(model, "steer_joint", "locked") == "free":
+    if kind == "shell_rock" and model.steer_joint == "free":
         # the pendulum free on its steer joint: Drake's coupled scenario (point contact, the
         # reduced model's Majd steer friction, drive held) with the effects on the roll
         from roboball.sim.coupled import coupled_spec

@@ -59,6 +59,8 @@ class ReducedModel:
     # BaseParams of release states of coordinates the recording does not show (fitted per
     # release, passed to simulate in P by name; roboball.reduced.shell_steer)
     hidden_release: tuple = ()
+    # a shell release's steer joint: "locked" (the contract's baseline) or "free" (shell_steer)
+    steer_joint: str = "locked"
     # rounds of the diagnosis's search run even when a round keeps nothing (roboball.diagnose.select)
     search_rounds: int = 1
     ts_bound: float = 0.1      # s: how far the fitted release instant may move from the finder's

@@ -54,6 +54,7 @@ class ShellSteerModel(ReducedModel):
 
     release_params = ("q0", "t_shift")
     hidden_release = HIDDEN_RELEASE
+    steer_joint = "free"
     # With the steer joint's state free, no single shell effect fits a release that needs a
     # stiffness and a damping together: on the real dynamic log each alone reaches 0.07-0.08 rad
     # (20 starts each), the stiffness and damping pair 0.012; so pairs are searched even when no single effect is kept.
@@ -64,7 +65,6 @@ class ShellSteerModel(ReducedModel):
         the joint's reflected rotor inertia `delta_i` (kg m^2) where the fit carries one."""
         robot = robot or load_robot()
         self.kind = "shell_rock"
-        self.steer_joint = "free"
         self.signal = "pipe_angle_rad"
         self.dof = "roll"
         L = robot.links
