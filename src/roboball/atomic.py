@@ -54,17 +54,22 @@ def _not_a_folder(path: Path) -> None:
         raise IsADirectoryError(errno.EISDIR, "is a folder; give a file name", str(path))
 
 
-def output_folder(path: str | os.PathLike, create: bool = True) -> Path:
-    """`path` as an output folder: refused when it, or a folder above it, is a file; else
-    created (with `create`; a command checks first, before any work, and creates the folder
-    only when it has something to write)."""
+def output_folder(path: str | os.PathLike, create: bool = True, files: tuple = ()) -> Path:
+    """`path` as an output folder: refused when it, or a folder above it, is a file, when the
+    nearest existing one cannot be written, or when one of the `files` it will hold is a folder;
+    else created (with `create`; a command checks first, before any work, and creates the folder
+    only when it has something to write, so a refused run leaves nothing half-written)."""
     path = Path(path)
     for p in (path, *path.parents):
         if p.exists():
             if not p.is_dir():
                 why = "is a file; give a folder for the output" if p == path else f"is a file, so {path} cannot be a folder"
                 raise NotADirectoryError(errno.ENOTDIR, why, str(p))
+            if not os.access(p, os.W_OK | os.X_OK):
+                raise PermissionError(errno.EACCES, "cannot be written (read-only or no permission)", str(p))
             break
+    for name in files:
+        _not_a_folder(path / name)
     if create:
         path.mkdir(parents=True, exist_ok=True)
     return path

@@ -100,7 +100,7 @@ def _is_coupled(args) -> bool:
     if args.kind is not None:
         return args.kind == "steer_coupled"
     from roboball.ingest.importers import read_any
-    return read_any(args.recording[0]).kind == "steer_coupled"
+    return read_any(args.recording[0], pressure_kpa=args.pressure_kpa).kind == "steer_coupled"
 
 
 def cmd_diagnose_coupled(args) -> int:
@@ -109,7 +109,7 @@ def cmd_diagnose_coupled(args) -> int:
 
     t0 = time.perf_counter()
     friction = args.friction_steer or COUPLED_FRICTION
-    check_inputs(args.regression, friction)
+    check_inputs(args.regression, friction, args.recording)
     label = " + ".join(args.recording)
     progress = Progress(label, verbose=True)
     progress.stage = "Drake runs of the coupled model (pressure, screen, refit, held-out folds)"
@@ -137,8 +137,13 @@ def cmd_diagnose(args) -> int:
     for path in args.recording:
         if not Path(path).exists():
             raise RoboballError(f"{path}: file not found")
-    output_folder(args.out, create=False)
-    if _is_coupled(args):
+    coupled = _is_coupled(args)
+    if coupled:
+        from roboball.diagnose.coupled_report import OUTPUT_FILES
+    else:
+        from roboball.diagnose.report import OUTPUT_FILES
+    output_folder(args.out, create=False, files=OUTPUT_FILES)
+    if coupled:
         return cmd_diagnose_coupled(args)
     friction = read_diagnosis_friction(args.friction_steer, args.friction_drive)
     label = " + ".join(args.recording)

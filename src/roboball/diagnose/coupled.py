@@ -36,6 +36,9 @@ AUTHORS_TAU_S = 3.0
 # The logs start a few samples after the let-go, already moving (pipe 0.18-0.37 rad/s): each
 # run starts at the first sample with the rates of a quadratic fitted to the first 0.1 s.
 RELEASE_RATE_S = 0.1
+# s: a diagnosis needs the swing over and its return (the real repeats last 3.3-5.3 s; the shell
+# crosses its rest by about 1.4 s), and a held-out third that still holds part of the swing
+MIN_DURATION_S = 2.0
 
 
 @dataclass
@@ -71,6 +74,10 @@ def read_repeats(paths) -> list[Repeat]:
             if not rec.has_signal(c):
                 raise RoboballError(f"{path}: field {c}: a steer_coupled recording needs it")
         t = np.asarray(rec.time, dtype=float)
+        if len(t) < 2 or not t[-1] - t[0] >= MIN_DURATION_S:
+            span = t[-1] - t[0] if len(t) else 0.0
+            raise RoboballError(f"{path}: {len(t)} samples over {span:.3g} s from the let-go; a steer_coupled "
+                                f"diagnosis needs at least {MIN_DURATION_S:g} s (the swing over and back)")
         out.append(Repeat(Path(path).stem, t - t[0], np.asarray(rec.signal(COORDS[0]), float),
                           np.asarray(rec.signal(COORDS[1]), float)))
     return out

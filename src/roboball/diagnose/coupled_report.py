@@ -94,12 +94,23 @@ def _pooled(folds: list, which: str) -> dict:
     return {c: float(np.sqrt(np.mean([f[which][c] ** 2 for f in folds]))) for c in COORDS}
 
 
-def check_inputs(regression, friction_steer) -> None:
-    """The baseline's calibrated parts exist (a one-line error naming the missing file)."""
+# what `diagnose_coupled` puts in its folder (checked by the command before any work)
+OUTPUT_FILES = ("diagnosis.json", "predictions.csv", "overlay.png", "report.md")
+
+
+def check_inputs(regression, friction_steer, paths=()) -> None:
+    """The recordings and the baseline's calibrated parts are readable and sane, before any work
+    (a one-line error naming the file and what is wrong)."""
+    from roboball.identify.friction.fitted import read_stand_friction
+    from roboball.sim.schedule import ShellLaws
+
     for f, what in ((regression, "shell regression table (pipeline rule shell_regression)"),
                     (friction_steer, "steer friction fit (pipeline rule friction_fit, real steer stand)")):
         if not Path(f).is_file():
             raise RoboballError(f"{f}: {what} not found; the steer_coupled baseline needs it")
+    ShellLaws.from_regression_csv(regression)
+    read_stand_friction(friction_steer)
+    read_repeats(paths)
 
 
 def diagnose_coupled(paths, out_dir, regression, friction_steer, log=None) -> dict:
@@ -150,7 +161,7 @@ def diagnose_coupled(paths, out_dir, regression, friction_steer, log=None) -> di
         "dropped": [key(*c) for c in dropped],
         "notes": ["release states: the first sample, with rates from a quadratic fitted to the first 0.1 s of each log (estimated from the data, not fitted by simulation)"],
     }
-    out = output_folder(out_dir)
+    out = output_folder(out_dir, files=OUTPUT_FILES)
     write_json_atomic(out / "diagnosis.json", js)
     write_csv_atomic(_predictions(reps, pred_base, pred_aug), out / "predictions.csv")
     _overlay(reps, pred_base, pred_aug, out / "overlay.png")

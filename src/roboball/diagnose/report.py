@@ -25,9 +25,14 @@ from roboball.diagnose.markdown import report_md
 from roboball.diagnose.select import Diagnosis
 
 
+# what `write` puts in its folder (checked by the command before any work)
+OUTPUT_FILES = ("diagnosis.json", "details.json", "predictions.csv", "report.md",
+                "overlay.png", "regimes.png", "windows.png")
+
+
 def write(d: Diagnosis, out_dir, drake: bool = True) -> dict:
     """Write diagnosis.json, details.json, report.md and the figures into `out_dir`."""
-    out = output_folder(out_dir)
+    out = output_folder(out_dir, files=OUTPUT_FILES)
     labels = classify(d.prep)
     loc_base = locate(d.prep, d.baseline.full.pred, labels)
     loc_final = locate(d.prep, d.final.full.pred, labels)

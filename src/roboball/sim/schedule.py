@@ -162,6 +162,11 @@ class ShellLaws:
         missing = [k for k in ("zeta_a", "zeta_b", "omega_n_c", "omega_n_d") if k not in values]
         if missing:
             raise RoboballError(f"{path}: missing rows {', '.join(missing)}")
+        for k in ("zeta_a", "zeta_b", "omega_n_c", "omega_n_d"):
+            if not math.isfinite(values[k]):
+                raise RoboballError(f"{path}: row {k}: value {values[k]!r} is not a finite number")
+        if not values["zeta_a"] > 0:      # zeta(p) = a exp(b p) is a damping ratio, > 0 at every p
+            raise RoboballError(f"{path}: row zeta_a: value {values['zeta_a']!r} must be > 0")
         return cls(values["zeta_a"], values["zeta_b"], values["omega_n_c"], values["omega_n_d"])
 
     def zeta(self, p_kpa, m=None):

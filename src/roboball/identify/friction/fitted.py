@@ -41,6 +41,14 @@ def _majd_parameters(path: Path, d: dict) -> dict:
         if isinstance(v, bool) or not isinstance(v, (int, float)) or v != v:
             raise RoboballError(f"{path}: Majd parameter '{k}' is {'missing' if v is None else repr(v)}, not a number")
         out[k] = float(v)
+    # eq. 3 needs a positive break speed and exponent, and its viscous and Coulomb terms must
+    # oppose the motion; sigma's sign is free (it shapes the hump)
+    for k in ("omega_c", "n"):
+        if not out[k] > 0:
+            raise RoboballError(f"{path}: Majd parameter '{k}' is {out[k]!r}, must be > 0")
+    for k in ("f_w", "f_c"):
+        if not out[k] >= 0:
+            raise RoboballError(f"{path}: Majd parameter '{k}' is {out[k]!r}, must be >= 0 (friction opposes motion)")
     return out
 
 
