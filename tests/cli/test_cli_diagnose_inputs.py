@@ -90,3 +90,14 @@ def test_coupled_inputs_are_checked_before_the_drake_runs(tmp_path, rows, zeta_a
                  "--friction-steer", fit, "--out", out)
     refused(r, out, *words)
     assert "diagnosing" not in r.stderr      # refused before the progress of any work
+
+
+def test_a_bad_steer_setting_in_the_sidecar_gets_its_error_alone(tmp_path):
+    rec = tmp_path / "shell.csv"
+    shutil.copy(SHELL, rec)
+    side = json.loads(SHELL.with_suffix(".json").read_text())
+    rec.with_suffix(".json").write_text(json.dumps({**side, "steer_joint": "maybe"}))
+    out = tmp_path / "out"
+    r = roboball("diagnose", rec, "--no-drake", "--out", out)
+    refused(r, out, "shell.json: field steer_joint", "'maybe'")
+    assert r.stderr.strip().count("\n") == 0, r.stderr

@@ -53,10 +53,10 @@ def diagnose(recording, out_dir=None, kind: str | None = None, pressure_kpa: flo
         raise ValueError("no recording to diagnose")
     recs = [r if isinstance(r, Recording) else read(r, kind=kind, pressure_kpa=pressure_kpa) for r in items]
     prep = pool([prepare(r) for r in recs])
+    steer = steer_setting(prep, steer_joint)      # checked before anything is said
     if log:
         log(f"data: {len(prep.windows)} release window(s) of {prep.kind}")
     model = None
-    steer = steer_setting(prep, steer_joint)
     if steer == "unknown":
         d = either_steer_setting(recs, prep, settings, log, (friction or {}).get("steer"))
     else:
