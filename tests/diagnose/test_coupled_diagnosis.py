@@ -159,6 +159,8 @@ def test_diagnose_runs_on_the_native_coupled_log_and_reports_both_coordinates(tm
     assert js["fit"]["rmse_after"] <= js["fit"]["rmse_before"]
     for f in ("report.md", "overlay.png", "predictions.csv"):
         assert (out / f).is_file()
+    from roboball.diagnose.coupled_report import OUTPUT_FILES  # what the command checks before any work
+    assert {p.name for p in out.iterdir()} <= set(OUTPUT_FILES)
 
 
 def test_their_published_parameters_lose_to_our_fit_of_their_objective_on_the_real_repeats():

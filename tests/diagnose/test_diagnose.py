@@ -177,6 +177,8 @@ def test_cli_writes_the_contract_files(tmp_path, capsys):
     assert f["drake_rmse_after"] < 0.2 * f["drake_rmse_before"]
     for name in ("report.md", "overlay.png", "regimes.png", "windows.png", "details.json"):
         assert (out / name).stat().st_size > 0
+    from roboball.diagnose.report import OUTPUT_FILES      # what the command checks before any work
+    assert {p.name for p in out.iterdir()} <= set(OUTPUT_FILES)
     assert "coulomb_friction" in (out / "report.md").read_text()
 
 

@@ -105,17 +105,17 @@ def _is_coupled(args) -> bool:
 
 def cmd_diagnose_coupled(args) -> int:
     """The coupled steer test: diagnosed in Drake (roboball.diagnose.coupled_report)."""
-    from roboball.diagnose.coupled_report import check_inputs, diagnose_coupled
+    from roboball.diagnose.coupled_report import diagnose_coupled, read_inputs
 
     t0 = time.perf_counter()
     friction = args.friction_steer or COUPLED_FRICTION
-    check_inputs(args.regression, friction, args.recording)
+    inputs = read_inputs(args.recording, args.regression, friction)
     label = " + ".join(args.recording)
     progress = Progress(label, verbose=True)
     progress.stage = "Drake runs of the coupled model (pressure, screen, refit, held-out folds)"
     progress.say(f"diagnosing {label}: {progress.stage} ...")
     try:
-        js = diagnose_coupled(args.recording, args.out, args.regression, friction, log=progress)
+        js = diagnose_coupled(*inputs, args.out, log=progress)
     except ValueError as exc:
         raise RoboballError(f"{label}: {exc}")
     finally:

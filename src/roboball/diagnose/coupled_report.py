@@ -98,9 +98,10 @@ def _pooled(folds: list, which: str) -> dict:
 OUTPUT_FILES = ("diagnosis.json", "predictions.csv", "overlay.png", "report.md")
 
 
-def check_inputs(regression, friction_steer, paths=()) -> None:
-    """The recordings and the baseline's calibrated parts are readable and sane, before any work
-    (a one-line error naming the file and what is wrong)."""
+def read_inputs(paths, regression, friction_steer) -> tuple:
+    """The coupled recordings (`Repeat`s), the shell laws of the regression table and the stand
+    fit's steer friction, each read and checked once, before any work (a one-line error naming
+    the file and what is wrong)."""
     from roboball.identify.friction.fitted import read_stand_friction
     from roboball.sim.schedule import ShellLaws
 
@@ -108,20 +109,12 @@ def check_inputs(regression, friction_steer, paths=()) -> None:
                     (friction_steer, "steer friction fit (pipeline rule friction_fit, real steer stand)")):
         if not Path(f).is_file():
             raise RoboballError(f"{f}: {what} not found; the steer_coupled baseline needs it")
-    ShellLaws.from_regression_csv(regression)
-    read_stand_friction(friction_steer)
-    read_repeats(paths)
+    return read_repeats(paths), ShellLaws.from_regression_csv(regression), read_stand_friction(friction_steer)
 
 
-def diagnose_coupled(paths, out_dir, regression, friction_steer, log=None) -> dict:
-    """Diagnose the coupled recordings `paths`; returns the diagnosis.json content."""
-    from roboball.identify.friction.fitted import read_stand_friction
-    from roboball.sim.schedule import ShellLaws
-
-    check_inputs(regression, friction_steer)
-    reps = read_repeats(paths)
-    laws = ShellLaws.from_regression_csv(regression)
-    friction = read_stand_friction(friction_steer)
+def diagnose_coupled(reps, laws, friction, out_dir, log=None) -> dict:
+    """Diagnose the coupled recordings `reps` against the injected baseline of the shell `laws`
+    and the steer `friction` (as `read_inputs` gives them); returns the diagnosis.json content."""
     folds = folds_of(reps)
     train = folds[0].train if len(reps) == 1 else {r.name: np.ones(len(r.t), bool) for r in reps}
     pressure = fit_pressure([truncated(r, train[r.name]) for r in reps], laws, friction)

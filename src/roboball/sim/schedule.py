@@ -159,15 +159,16 @@ class ShellLaws:
                     values[row["name"]] = float(row["value"])
                 except (KeyError, TypeError, ValueError):
                     raise RoboballError(f"{path}: row {row}: needs columns name, value with a number")
-        missing = [k for k in ("zeta_a", "zeta_b", "omega_n_c", "omega_n_d") if k not in values]
+        rows = ("zeta_a", "zeta_b", "omega_n_c", "omega_n_d")     # the constructor's order
+        missing = [k for k in rows if k not in values]
         if missing:
             raise RoboballError(f"{path}: missing rows {', '.join(missing)}")
-        for k in ("zeta_a", "zeta_b", "omega_n_c", "omega_n_d"):
+        for k in rows:
             if not math.isfinite(values[k]):
                 raise RoboballError(f"{path}: row {k}: value {values[k]!r} is not a finite number")
         if not values["zeta_a"] > 0:      # zeta(p) = a exp(b p) is a damping ratio, > 0 at every p
             raise RoboballError(f"{path}: row zeta_a: value {values['zeta_a']!r} must be > 0")
-        return cls(values["zeta_a"], values["zeta_b"], values["omega_n_c"], values["omega_n_d"])
+        return cls(*(values[k] for k in rows))
 
     def zeta(self, p_kpa, m=None):
         from roboball.physics.mathns import NP
