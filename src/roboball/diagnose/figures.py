@@ -14,12 +14,14 @@ from roboball.atomic import savefig_atomic
 from roboball.diagnose.select import Diagnosis
 
 
-def write_figures(d: Diagnosis, out: Path, drake_base, drake_aug, located_base, located_final) -> list:
-    """Draw the three figures into `out`; returns their file names."""
+def write_figures(d: Diagnosis, out: Path, drake_base, drake_aug, located_base, located_final,
+                  engine: str = "Drake") -> list:
+    """Draw the three figures into `out`; returns their file names.  `engine` names what made
+    `drake_base`/`drake_aug` (with --no-drake they are the reduced model's predictions)."""
     import matplotlib
     matplotlib.use("Agg")
 
-    return [_overlay(d, out, drake_base, drake_aug),
+    return [_overlay(d, out, drake_base, drake_aug, engine),
             _regimes(d, out, located_base, located_final),
             _windows(d, out, located_base)]
 
@@ -34,7 +36,7 @@ def _save(fig, out: Path, name: str) -> str:
     return f.name
 
 
-def _overlay(d: Diagnosis, out: Path, drake_base, drake_aug) -> str:
+def _overlay(d: Diagnosis, out: Path, drake_base, drake_aug, engine: str) -> str:
     import matplotlib.pyplot as plt
 
     prep = d.prep
@@ -46,7 +48,7 @@ def _overlay(d: Diagnosis, out: Path, drake_base, drake_aug) -> str:
                              gridspec_kw={"height_ratios": [2, 1.3]})
     for j, w in enumerate(wins):
         ax, axr = axes[0, j], axes[1, j]
-        _overlay_release(d, ax, axr, w, drake_base, drake_aug)
+        _overlay_release(d, ax, axr, w, drake_base, drake_aug, engine)
         if j == 0:
             name = prep.signal.rsplit("_rad", 1)[0].replace("_", " ")     # steer_angle_rad -> steer angle
             ax.set_ylabel(f"{name} ({prep.unit})")
@@ -55,17 +57,17 @@ def _overlay(d: Diagnosis, out: Path, drake_base, drake_aug) -> str:
             axr.legend(fontsize=7, loc="best")
     # wrapped to the figure's width: a long path and three effects ran off a one-column figure
     title = f"{prep.label}: {d.verdict}" + (f" (+ {', '.join(d.chosen)})" if d.chosen else "")
-    fig.suptitle(textwrap.fill(title, width=int(75 * n)), fontsize=10)
+    fig.suptitle(textwrap.fill(title, width=int(60 * n)), fontsize=10)    # ~60 characters fit 5.2 in at 10 pt
     return _save(fig, out, "overlay.png")
 
 
-def _overlay_release(d: Diagnosis, ax, axr, w, drake_base, drake_aug) -> None:
+def _overlay_release(d: Diagnosis, ax, axr, w, drake_base, drake_aug, engine: str) -> None:
     """One release's column of the overlay: the signal (`ax`) and the residuals (`axr`)."""
     t = w.t - w.t0
     ax.plot(t, w.y, ".", ms=2.2, color="0.35", label="recording")
-    ax.plot(t, drake_base[w.index], color="tab:red", lw=1.0, label="baseline (Drake)")
+    ax.plot(t, drake_base[w.index], color="tab:red", lw=1.0, label=f"baseline ({engine})")
     if d.chosen:
-        ax.plot(t, drake_aug[w.index], color="tab:blue", lw=1.0, label="augmented (Drake)")
+        ax.plot(t, drake_aug[w.index], color="tab:blue", lw=1.0, label=f"augmented ({engine})")
     if w.start == "turning point":
         ax.set_title(f"release {w.index + 1} (let go {w.release.t_release_s:.2f} s), "
                      f"fitted from its first turning point, {w.t0:.2f} s", fontsize=9)

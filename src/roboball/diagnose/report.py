@@ -40,7 +40,8 @@ def write(d: Diagnosis, out_dir, drake: bool = True) -> dict:
     drake_base, drake_aug, stats = _drake_predictions(d, drake)
     d.timings["drake_s"] = time.perf_counter() - t0
     js = diagnosis_json(d, loc_base, *stats)
-    figures = write_figures(d, out, drake_base, drake_aug, loc_base, loc_final)
+    figures = write_figures(d, out, drake_base, drake_aug, loc_base, loc_final,
+                            engine="Drake" if drake else "reduced model")
     write_json_atomic(out / "details.json", _clean(details(d, loc_base, loc_final)))
     write_csv_atomic(predictions_table(d, drake_base, drake_aug), out / "predictions.csv")
     write_text_atomic(out / "report.md", report_md(d, js, loc_base, loc_final, figures, stats))
