@@ -53,6 +53,26 @@ def speed_errors(w_measured, w_sim, floor: float = SPEED_FLOOR_RAD_S) -> dict:
             "rmse_rad_s": float(np.sqrt(np.mean((w_s - w_e) ** 2))) if w_e.size else nan}
 
 
+def pme_table(summary):
+    """Eq. 12 per contact model and pressure over the ramp runs of `summary` (a DataFrame with
+    one row per run: contact, pressure_kpa, pme_percent): the mean, the run range and the run
+    count; the friction-posterior range (min of pme_draw_low, max of pme_draw_high) and the means
+    of the errors that cannot cancel (mape_percent, rmse_rad_s) where the runs carry them.  One
+    table for Figs. 13/14 and for `roboball report --params`."""
+    keys = ["contact", "pressure_kpa"]
+    g = summary.groupby(keys)
+    out = g.agg(pme_mean_percent=("pme_percent", "mean"), pme_min_percent=("pme_percent", "min"),
+                pme_max_percent=("pme_percent", "max"), runs=("pme_percent", "size")).reset_index()
+    if "pme_draw_low" in summary:
+        post = g.agg(pme_post_low_percent=("pme_draw_low", "min"),
+                     pme_post_high_percent=("pme_draw_high", "max")).reset_index()
+        out = out.merge(post, on=keys, how="left")
+    if {"mape_percent", "rmse_rad_s"} <= set(summary.columns):
+        errs = g.agg(mape_mean_percent=("mape_percent", "mean"), rmse_mean_rad_s=("rmse_rad_s", "mean")).reset_index()
+        out = out.merge(errs, on=keys, how="left")
+    return out
+
+
 # ---- model selection: BIC with correlated residuals -----------------------------------------
 def lag1(residuals: dict) -> float:
     """Lag-1 autocorrelation of residuals (one array per release), pooled within releases."""

@@ -12,6 +12,7 @@ from roboball.errors import RoboballError
 # here reruns the figure rules only (the ingest stage imports .plotting, not this module).
 from roboball.figures.style import CONTACT_COLOURS, plt, save
 from roboball.kinds import CONTACT_MODELS
+from roboball.metrics import pme_table
 
 STAGES = ("fig10", "fig11", "fig13_14", "table2")
 # Columns of the ramp summary that fig13_14 needs (roboball.pipeline.simulation.speed_errors).
@@ -138,22 +139,6 @@ def _range_whisker(ax, x, low, high, capsize):
     ax.errorbar(x, 0.5 * (low + high), yerr=0.5 * abs(high - low), fmt="none", ecolor="k", capsize=capsize, lw=1)
 
 
-def _pme_table(s: pd.DataFrame) -> pd.DataFrame:
-    """PME per (contact, pressure): mean, min, max over runs, the posterior interval where the
-    runs carry one, and the errors that cannot cancel (speed_errors), means over runs."""
-    agg = s.groupby(["contact", "pressure_kpa"]).agg(pme_mean_percent=("pme_percent", "mean"),
-                                                      pme_min_percent=("pme_percent", "min"),
-                                                      pme_max_percent=("pme_percent", "max"),
-                                                      runs=("pme_percent", "size")).reset_index()
-    if "pme_draw_low" in s:
-        d = s.groupby(["contact", "pressure_kpa"]).agg(pme_post_low_percent=("pme_draw_low", "min"),
-                                                        pme_post_high_percent=("pme_draw_high", "max")).reset_index()
-        agg = agg.merge(d, on=["contact", "pressure_kpa"], how="left")
-    d = s.groupby(["contact", "pressure_kpa"]).agg(mape_mean_percent=("mape_percent", "mean"),
-                                                    rmse_mean_rad_s=("rmse_rad_s", "mean")).reset_index()
-    return agg.merge(d, on=["contact", "pressure_kpa"], how="left")
-
-
 def _fig13(s: pd.DataFrame, agg: pd.DataFrame, contacts: list, out: str, campaign: str, names: dict) -> None:
     """Fig. 13: PME bars per pressure and model, the runs as dots, posterior whiskers."""
     pressures = sorted(s.pressure_kpa.unique())
@@ -278,7 +263,7 @@ def fig13_14(summary: str, out13: str, out14: str, out_csv: str, out_md: str, ca
     if missing:
         raise RoboballError(f"{summary}: missing column(s) {', '.join(missing)} (written by roboball.pipeline.simulation)")
     contacts = [c for c in [*CONTACT_MODELS, "diagnosed"] if c in set(s.contact)]
-    agg = _pme_table(s)
+    agg = pme_table(s)
     write_csv_atomic(agg, out_csv)
     names = {c: c for c in contacts}
     if hydro_setting and "hydroelastic" in names:

@@ -20,6 +20,7 @@ import math
 from pathlib import Path
 
 from roboball.errors import RoboballError
+from roboball.metrics import pme_table
 from roboball.identify.friction.comparison import recommendation
 from roboball.identify.friction.results import try_read_fit
 
@@ -144,14 +145,7 @@ def _pme(results: Path, figures: Path, missing: list) -> list:
         need = {"contact", "pressure_kpa", "pme_percent"}
         if not need <= set(s.columns):
             raise RoboballError(f"{summary}: needs columns {', '.join(sorted(need))}")
-        agg = s.groupby(["contact", "pressure_kpa"]).agg(pme_mean_percent=("pme_percent", "mean"),
-                                                          pme_min_percent=("pme_percent", "min"),
-                                                          pme_max_percent=("pme_percent", "max"),
-                                                          runs=("pme_percent", "size")).reset_index()
-        if "pme_draw_low" in s:
-            d = s.groupby(["contact", "pressure_kpa"]).agg(pme_post_low_percent=("pme_draw_low", "min"),
-                                                            pme_post_high_percent=("pme_draw_high", "max")).reset_index()
-            agg = agg.merge(d, on=["contact", "pressure_kpa"], how="left")
+        agg = pme_table(s)
     else:
         missing.append(f"{table} or {summary} (ramp PME)")
         return []
