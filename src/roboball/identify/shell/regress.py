@@ -7,12 +7,19 @@ of the locked-steer shell tests over inflation pressure:
     omega_n(p) = c + d p
 
 and injects the result into the model as C_inject(p) and K_inject(p) (eq. 7-8).  Here both
-are fitted by weighted least squares (weights 1/se^2 from the per-release standard errors
-when given; nonlinear Gauss-Newton/trust-region for the exponential, exact for the line).
-The weights are taken as *relative*: the covariance is scaled by the reduced chi-square,
-so scatter between repeated releases that the per-release errors do not capture still
-widens the intervals.  95% intervals use the Student-t quantile with n - 2 degrees of
-freedom; confidence and prediction bands come from the same covariance by the delta method.
+are fitted by weighted least squares (nonlinear Gauss-Newton/trust-region for the
+exponential, exact for the line).  The weights are taken as *relative*: the covariance is
+scaled by the reduced chi-square.  95% intervals use the Student-t quantile with n - 2 degrees
+of freedom; confidence and prediction bands come from the same covariance by the delta method.
+
+A decay table's releases (`fit_regressions`) are weighted by 1 / (se^2 + tau^2), not 1 / se^2.
+Repeated releases at one pressure can scatter far more than their fits' standard errors say:
+a membrane shell's damping depends on the release amplitude, and a small release is fitted
+more tightly *and* damps more (docs/modelling.md).  Weighted by 1 / se^2 alone, the curve follows the small releases and passes above
+two of the three releases at every pressure.  tau, the scatter between releases that their
+errors do not explain, is the Paule-Mandel estimate of meta-analysis (the generalised
+chi-square equals its degrees of freedom; DerSimonian & Kacker 2007), so a release counts by its
+total error and the curve estimates the mean over the releases recorded.
 """
 from __future__ import annotations
 
@@ -23,7 +30,7 @@ from typing import Callable, Sequence
 import numpy as np
 import pandas as pd
 from scipy import stats
-from scipy.optimize import least_squares
+from scipy.optimize import brentq, least_squares
 
 from roboball.errors import RoboballError
 
@@ -59,6 +66,7 @@ class RegressionFit:
     se: np.ndarray | None
     model: Callable[[np.ndarray, np.ndarray], np.ndarray] = field(repr=False)
     gradient: Callable[[np.ndarray, np.ndarray], np.ndarray] = field(repr=False)
+    tau: float = 0.0    # scatter between releases beyond their errors (the value's unit); in `se`
 
     def predict(self, x) -> np.ndarray:
         return self.model(np.asarray(x, dtype=float), self.params)
@@ -210,10 +218,43 @@ class Regressions:
         return self.omega_n.band(p_kpa, level, kind)
 
 
+def between_release_sd(fit: Callable[..., RegressionFit], p_kpa, y, se) -> float:
+    """Paule-Mandel tau: the scatter between releases that their standard errors `se` do not
+    explain, the tau >= 0 at which `fit(p_kpa, y, sqrt(se^2 + tau^2))` leaves a chi-square equal
+    to its degrees of freedom (0 when the errors explain the scatter)."""
+    p_kpa, y, se = (np.asarray(a, dtype=float) for a in (p_kpa, y, se))
+    ok = np.isfinite(p_kpa) & np.isfinite(y) & np.isfinite(se) & (se > 0)    # the rows `fit` keeps
+    p_kpa, y, se = p_kpa[ok], y[ok], se[ok]
+
+    def excess(tau2: float) -> float:
+        s = np.sqrt(se ** 2 + tau2)
+        f = fit(p_kpa, y, s)
+        r = (y - f.predict(p_kpa)) / s
+        return float(r @ r) - f.dof
+
+    if excess(0.0) <= 0.0:
+        return 0.0
+    top = float(np.var(y)) + float(np.max(se)) ** 2
+    while excess(top) > 0.0:      # falls to -dof as tau grows: the bracket is found
+        top *= 4.0
+    return math.sqrt(brentq(excess, 0.0, top, xtol=1e-14 * top, rtol=1e-12))
+
+
+def _heterogeneous(fit: Callable[..., RegressionFit], p_kpa, y, se) -> RegressionFit:
+    """`fit` weighted by each release's total error sqrt(se^2 + tau^2) (the module's note)."""
+    if se is None:
+        return fit(p_kpa, y, None)
+    tau = between_release_sd(fit, p_kpa, y, se)
+    out = fit(p_kpa, y, np.sqrt(np.asarray(se, dtype=float) ** 2 + tau ** 2))
+    out.tau = tau
+    return out
+
+
 def fit_regressions(decay_df: pd.DataFrame, weighted: bool = True) -> Regressions:
     """Fit zeta(p) and omega_n(p) to a decay table (columns pressure_kpa, zeta, zeta_se,
     omega_n_rad_s, omega_n_se_rad_s; see roboball.identify.shell.decay.decay_table).  Rows without a
-    pressure are ignored.  `weighted`: use the standard-error columns as weights."""
+    pressure are ignored.  `weighted`: weight each release by its total error, its standard
+    error and the scatter between releases (`between_release_sd`); else all alike."""
     need = ["pressure_kpa", "zeta", "omega_n_rad_s"]
     missing = [c for c in need if c not in decay_df.columns]
     if missing:
@@ -230,8 +271,8 @@ def fit_regressions(decay_df: pd.DataFrame, weighted: bool = True) -> Regression
     wse = weights("omega_n_se_rad_s")
     p = df["pressure_kpa"].to_numpy(float)
     return Regressions(
-        zeta=fit_zeta_exp(p, df["zeta"].to_numpy(float), zse),
-        omega_n=fit_omega_linear(p, df["omega_n_rad_s"].to_numpy(float), wse),
+        zeta=_heterogeneous(fit_zeta_exp, p, df["zeta"].to_numpy(float), zse),
+        omega_n=_heterogeneous(fit_omega_linear, p, df["omega_n_rad_s"].to_numpy(float), wse),
     )
 
 
