@@ -118,11 +118,13 @@ def _windows(d: Diagnosis, out: Path, located_base) -> str:
         if d.chosen:
             ax.plot(w.t, (d.final.full.pred[w.index] - w.y) ** 2, color="tab:blue", lw=0.7,
                     label="augmented" if w.index == 0 else None)
-    for loc in located_base.windows:
+    for k, loc in enumerate(located_base.windows):
         ax.axvspan(loc["start_s"], loc["end_s"], color="orange", alpha=0.25)
-        ax.text(loc["start_s"], ax.get_ylim()[1] * 0.9, f"{loc['regime']} {loc['share_of_residual']:.0%}", fontsize=7)
+        # three heights in turn: neighbouring windows' labels ran into each other on one line
+        ax.text(loc["start_s"], ax.get_ylim()[1] * (0.9 - 0.12 * (k % 3)),
+                f"{loc['regime']} {loc['share_of_residual']:.0%}", fontsize=7)
     ax.set_xlabel("recording time (s)")
-    ax.set_ylabel(f"squared residual ({d.prep.unit}^2)")
+    ax.set_ylabel(f"squared residual (({d.prep.unit})$^2$)")
     handles, _ = ax.get_legend_handles_labels()
     ax.legend(handles=handles + [Patch(color="orange", alpha=0.25, label="located windows (baseline)")],
               fontsize=7, loc="upper right")

@@ -48,7 +48,7 @@ def fig5(fits: list, out_png: str) -> None:
         ax.set_xlabel(f"{joint} joint velocity (rad/s)")
         ax.set_ylabel("friction torque on the joint (N m)")
         ax.set_title(f"{joint} joint")
-        ax.legend(fontsize=8, loc="upper right")
+        ax.legend(fontsize=8, loc="lower right")      # upper right covered the Majd stiction hump
     fig.suptitle("Fig. 5: fitted joint-friction laws")
     save(fig, out_png)
 
@@ -122,9 +122,9 @@ def fig_stand_fits(recording: str, releases: str, fits: list, out_png: str, titl
                           + ("; chain NOT converged" if unconverged else ""))
         ax.set_ylabel(f"{sig[:-4].replace('_', ' ')} (rad)")
         ax.set_title(f"release {i + 1} at {r['t_release_s']:.2f} s", fontsize=9)
-        if i == 0:
-            ax.legend(fontsize=7, loc="lower right")
     axes[-1, 0].set_xlabel("time since release (s)")
+    # Below the panels: inside the first one the legend covered the swings' troughs.
+    fig.legend(*axes[0, 0].get_legend_handles_labels(), fontsize=7, loc="outside lower center")
     fig.suptitle((title or f"{Path(recording).stem}: data and fitted friction laws")
                  + "\n(each law on the stand it calibrated, let go at its fitted angle and instant)", fontsize=10)
     save(fig, out_png)

@@ -29,6 +29,11 @@ def _of(campaign: str) -> str:
     return f" ({campaign} recordings)" if campaign else ""
 
 
+# Fig. 10 runs the paper's hydroelastic control (eq. 10-11, no scaling) beside the calibrated one.
+FIG10_NAMES = {"point": "point contact", "injected": "injected contact (eq. 6-9)",
+               "hydroelastic": "hydroelastic contact (eq. 10-11)", "hydro_tuned": "hydroelastic, calibrated (Fig. S3)"}
+
+
 def fig10(points: str, regression: str, sims: str, out_png: str, robot_yaml: str = "", campaign: str = "") -> None:
     """Fig. 10: recorded zeta and omega_n vs pressure (error bars), regressions with 95% bands,
     eq. 5 (dashed), and each contact model's simulated values.  `campaign` names where the
@@ -42,7 +47,7 @@ def fig10(points: str, regression: str, sims: str, out_png: str, robot_yaml: str
     sim = sim[(sim.modulus_scale == 1.0) & (sim.dissipation_scale == 1.0)]
     reg = fit_regressions(pts)
     pp = np.linspace(pts.pressure_kpa.min() - 1, pts.pressure_kpa.max() + 1, 100)
-    fig, axes = plt.subplots(2, 1, figsize=(7, 7.5), sharex=True)
+    fig, axes = plt.subplots(2, 1, figsize=(9.5, 7.5), sharex=True)
     for ax, col, se, fit, label, unit, law in [
             (axes[0], "zeta", "zeta_se", reg.zeta, "damping ratio $\\zeta$", "-", "$\\zeta = a\\,e^{b p}$"),
             (axes[1], "omega_n_rad_s", "omega_n_se_rad_s", reg.omega_n, "natural frequency $\\omega_n$", "rad/s",
@@ -50,7 +55,9 @@ def fig10(points: str, regression: str, sims: str, out_png: str, robot_yaml: str
         ax.errorbar(pts.pressure_kpa, pts[col], yerr=1.96 * pts[se], fmt="o", color="k", ms=4, capsize=2,
                     label="recorded releases (95% CI)")
         lo, hi = fit.band(pp)
-        ax.plot(pp, fit.predict(pp), color="k", lw=1.5, label=f"regression: {law}")
+        ax.plot(pp, fit.predict(pp), color="k", lw=1.5,
+                label=f"regression: {law}\n(scatter between releases $\\tau$ = {fit.tau:.3g}"
+                      + ("" if unit == "-" else f" {unit}") + ")")
         ax.fill_between(pp, lo, hi, color="k", alpha=0.12, label="95% confidence band")
         shown = [c for c in CONTACT_MODELS if c in set(sim.contact)]
         for k, contact in enumerate(shown):
@@ -58,7 +65,7 @@ def fig10(points: str, regression: str, sims: str, out_png: str, robot_yaml: str
             m = g.groupby("pressure_kpa")[col].agg(["mean", "std"]).reset_index()
             off = 0.3 * (k - (len(shown) - 1) / 2)          # side by side at each pressure
             ax.errorbar(m.pressure_kpa + off, m["mean"], yerr=m["std"].fillna(0), fmt="s", mfc="none",
-                        color=CONTACT_COLOURS[contact], ms=6, capsize=2, label=f"Drake, {contact} contact")
+                        color=CONTACT_COLOURS[contact], ms=6, capsize=2, label=f"Drake, {FIG10_NAMES.get(contact, contact)}")
         ax.set_ylabel(f"{label} ({unit})")
     axes[1].axhline(robot.omega_n_eq5, color="tab:purple", ls="--", lw=1.2,
                     label=f"eq. 5: $\\sqrt{{K_{{eq}}/M_{{eq}}}}$ = {robot.omega_n_eq5:.3f} rad/s")
@@ -66,8 +73,8 @@ def fig10(points: str, regression: str, sims: str, out_png: str, robot_yaml: str
     c, d = reg.omega_n.value("omega_n_c"), reg.omega_n.value("omega_n_d")
     axes[0].set_title(f"$\\zeta(p) = {a:.3f}\\,e^{{{b:.4f}\\,p}}$,  $\\omega_n(p) = {c:.3f} {'-' if d < 0 else '+'} {abs(d):.4f}\\,p$")
     axes[1].set_xlabel("shell gauge pressure p (kPa)")
-    for ax in axes:
-        ax.legend(fontsize=7, loc="best", ncol=2)
+    for ax in axes:      # beside the panel: inside it covered the highest points
+        ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5))
     fig.suptitle(f"Fig. 10: locked-steer shell dynamics vs pressure{_of(campaign)}")
     save(fig, out_png)
 
