@@ -17,6 +17,14 @@ STAGES = ("figs2",)
 TUNED = CONTACT_COLOURS["hydro_tuned"]
 
 
+def _at_bound(table: pd.DataFrame) -> np.ndarray:
+    return table["at_grid_bound"].astype(bool).to_numpy() if "at_grid_bound" in table else np.zeros(len(table), bool)
+
+
+def _pressures(rows: pd.DataFrame) -> str:
+    return ", ".join(f"{p:g}" for p in rows.pressure_kpa) + " kPa"
+
+
 def _grid_panels(ax_w, ax_z, grid: pd.DataFrame, table: pd.DataFrame) -> None:
     """omega_n and zeta of the grid's Drake runs against the modulus, one line per dissipation,
     the recorded range shaded, the fits marked."""
@@ -32,9 +40,16 @@ def _grid_panels(ax_w, ax_z, grid: pd.DataFrame, table: pd.DataFrame) -> None:
     for ax, col in ((ax_w, "omega_n_recorded_rad_s"), (ax_z, "zeta_recorded")):
         ax.axhspan(table[col].min(), table[col].max(), color=TUNED, alpha=0.15, label="recorded, range over pressures")
         ax.set_xscale("log")
-        ax.set_xlabel("hydro_modulus (Pa)")
-    ax_w.plot(table.hydro_modulus_pa, table.omega_n_drake_rad_s, "*", color=TUNED, ms=10, mec="k", label="fits (Drake)")
-    ax_z.plot(table.hydro_modulus_pa, table.zeta_drake, "*", color=TUNED, ms=10, mec="k", label="fits (Drake)")
+        ax.set_xlabel("hydroelastic modulus (Pa)")
+    # A fit stopped at the grid's bound is not a match: hollow, with its pressures named (several
+    # sit on one point at the softest modulus).
+    edge = _at_bound(table)
+    for mask, fill, label in ((~edge, TUNED, "fits (Drake)"), (edge, "none", f"fits at the grid's bound ({_pressures(table[edge])})")):
+        if mask.any():
+            ax_w.plot(table.hydro_modulus_pa[mask], table.omega_n_drake_rad_s[mask], "*", color=TUNED, mfc=fill,
+                      ms=10, mec="k", label=label)
+            ax_z.plot(table.hydro_modulus_pa[mask], table.zeta_drake[mask], "*", color=TUNED, mfc=fill, ms=10,
+                      mec="k", label=label)
     ax_w.set_ylabel("Drake natural frequency $\\omega_n$ (rad/s)")
     ax_z.set_ylabel("Drake damping ratio $\\zeta$ (-)")
     ax_z.set_yscale("log")
@@ -53,8 +68,12 @@ def _volume_panel(ax, table: pd.DataFrame, law: dict, authors: list, robot) -> N
     v = sl.volume_of_modulus(w, table.hydro_modulus_pa.to_numpy())
     v_lo = sl.volume_of_modulus(w, table.hydro_modulus_ci95_high_pa.to_numpy())
     v_hi = sl.volume_of_modulus(w, table.hydro_modulus_ci95_low_pa.to_numpy())
-    ax.errorbar(p, v, yerr=[v - v_lo, v_hi - v], fmt="o", color=TUNED, mec="k", capsize=3,
-                label="calibrated: $f_n$ / hydro_modulus (95%)")
+    edge = _at_bound(table)
+    for mask, fill, label in ((~edge, TUNED, "calibrated: $f_n$ / modulus (95%)"),
+                              (edge, "none", f"calibrated at the grid's bound ({_pressures(table[edge])})")):
+        if mask.any():
+            ax.errorbar(p[mask], v[mask], yerr=[(v - v_lo)[mask], (v_hi - v)[mask]], fmt="o", color=TUNED, mfc=fill,
+                        mec="k", capsize=3, label=label)
     pp = np.linspace(p.min() - 1, p.max() + 1, 100)
     k = law["exponent"]
     if np.isfinite(k):                     # a law needs two pressures at least
