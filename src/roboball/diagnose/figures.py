@@ -68,11 +68,15 @@ def _overlay_release(d: Diagnosis, ax, axr, w, drake_base, drake_aug, engine: st
     ax.plot(t, drake_base[w.index], color="tab:red", lw=1.0, label=f"baseline ({engine})")
     if d.chosen:
         ax.plot(t, drake_aug[w.index], color="tab:blue", lw=1.0, label=f"augmented ({engine})")
+    # a pooled diagnosis cuts its windows from several recordings: name the one each comes from
+    # (its window number counts across them)
+    what = f"{Path(w.source.path).stem}: release" if w.source is not None and w.source.path \
+        else f"release {w.index + 1}"
     if w.start == "turning point":
-        ax.set_title(f"release {w.index + 1} (let go {w.release.t_release_s:.2f} s), "
+        ax.set_title(f"{what} (let go {w.release.t_release_s:.2f} s), "
                      f"fitted from its first turning point, {w.t0:.2f} s", fontsize=9)
     else:
-        ax.set_title(f"release {w.index + 1} at {w.t0:.2f} s")
+        ax.set_title(f"{what} at {w.t0:.2f} s", fontsize=9)
     axr.plot(t, drake_base[w.index] - w.y, color="tab:red", lw=0.8, label="baseline, fitted")
     if d.chosen:
         axr.plot(t, drake_aug[w.index] - w.y, color="tab:blue", lw=0.8, label="augmented, fitted")

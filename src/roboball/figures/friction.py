@@ -42,14 +42,15 @@ def fig5(fits: list, out_png: str) -> None:
             col = LAW_COLOURS[law]
             ax.fill_between(v, lo, hi, color=col, alpha=0.25)
             ax.plot(v, friction.torque(law, v, {**f.fixed, **_law_medians(f)}), color=col, lw=1.8,
-                    label=f"{LAW_LABELS[law]} (median, 95% band)")
+                    label=LAW_LABELS[law])
         ax.axhline(0, color="k", lw=0.6)
         ax.axvline(0, color="k", lw=0.6)
         ax.set_xlabel(f"{joint} joint velocity (rad/s)")
         ax.set_ylabel("friction torque on the joint (N m)")
         ax.set_title(f"{joint} joint")
-        ax.legend(fontsize=8, loc="lower right")      # upper right covered the Majd stiction hump
-    fig.suptitle("Fig. 5: fitted joint-friction laws")
+        # friction opposes motion, so this quadrant stays empty; short labels keep the legend in it
+        ax.legend(fontsize=8, loc="lower left")
+    fig.suptitle("Fig. 5: fitted joint-friction laws (lines: posterior medians; bands: 95% of the posterior)")
     save(fig, out_png)
 
 

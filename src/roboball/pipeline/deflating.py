@@ -69,7 +69,7 @@ def plot(table: pd.DataFrame, schedule, out_png: str) -> None:
                       lw=1.8 if case == "schedule" else 1.1, label=label)
     ax_w.set_xlabel("time since release (s)")
     ax_w.set_ylabel("drive rate (rad/s)")
-    ax_w.legend(fontsize=8, ncol=2, loc="upper left")
+    ax_w.legend(fontsize=8, ncol=2, loc="upper center", bbox_to_anchor=(0.5, -0.14))   # inside, it hid a curve
     p0, p1 = schedule.pressures_kpa[0], schedule.pressures_kpa[-1]
     ax_p.set_title(f"Fig. S1: 16 deg ramp descent while the shell deflates {p0:g} -> {p1:g} kPa")
     save(fig, out_png)
