@@ -68,3 +68,15 @@ def test_a_model_without_release_state_keeps_plain_blocks(single_release):
     sel.model.release_params = ()
     sel.folds = sel._folds()
     assert [held_w for _, held_w, _ in sel.folds] == [None, None, None]
+
+
+def test_the_time_blocks_tile_the_window_and_split_the_free_response_evenly(single_release):
+    """The folds and the overlay's dotted block edges come from one function."""
+    from roboball.diagnose.crossval import time_blocks
+
+    w = single_release.windows[0]
+    blocks = time_blocks(w, 3)
+    assert blocks[0][0] == 0 and blocks[-1][1] == w.n
+    assert all(hi == lo for (_, hi), (lo, _) in zip(blocks, blocks[1:]))       # contiguous, no gap or overlap
+    after = [int(np.sum(w.t[lo:hi] >= w.t0)) for lo, hi in blocks]
+    assert max(after) - min(after) <= 1                                       # even split after the release

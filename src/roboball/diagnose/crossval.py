@@ -26,6 +26,15 @@ from roboball.diagnose.fit import Problem
 from roboball.diagnose.scored import Scored
 
 
+def time_blocks(w, n_blocks: int) -> list[tuple[int, int]]:
+    """The [lo, hi) sample ranges of a single window's held-out time blocks: the samples after the
+    release split evenly, the first block also holding those before it."""
+    after = np.nonzero(w.t >= w.t0)[0]
+    edges = np.linspace(0, len(after), n_blocks + 1).astype(int)
+    return [(0 if b == 0 else int(after[edges[b]]), w.n if b == n_blocks - 1 else int(after[edges[b + 1]]))
+            for b in range(n_blocks)]
+
+
 class CrossValidation:
     """Cross-validation for the selection (roboball.diagnose.select.Selector) to inherit: it needs
     `self.prep`, `self.engine`, `self.s` (Settings), `self.free_keys` and `self.log`."""
@@ -40,13 +49,9 @@ class CrossValidation:
                 out.append((train, w.index, {w.index: np.ones(w.n, bool)}))
             return out
         w = wins[0]
-        after = np.nonzero(w.t >= w.t0)[0]
-        edges = np.linspace(0, len(after), self.s.n_blocks + 1).astype(int)
         out = []
-        for b in range(self.s.n_blocks):
+        for b, (lo, hi) in enumerate(time_blocks(w, self.s.n_blocks)):
             held = np.zeros(w.n, bool)
-            lo = 0 if b == 0 else after[edges[b]]
-            hi = w.n if b == self.s.n_blocks - 1 else after[edges[b + 1]]
             held[lo:hi] = True
             # the first block holds the release's start: its state is fitted there (module docstring)
             holds_start = b == 0 and bool(self.engine.release_keys([w.index]))

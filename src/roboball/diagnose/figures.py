@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from roboball.atomic import savefig_atomic
+from roboball.diagnose.crossval import time_blocks
 from roboball.diagnose.select import Diagnosis
 
 
@@ -70,22 +71,28 @@ def _overlay_release(d: Diagnosis, ax, axr, w, drake_base, drake_aug, engine: st
         ax.plot(t, drake_aug[w.index], color="tab:blue", lw=1.0, label=f"augmented ({engine})")
     # a pooled diagnosis cuts its windows from several recordings: name the one each comes from
     # (its window number counts across them)
-    what = f"{Path(w.source.path).stem}: release" if w.source is not None and w.source.path \
-        else f"release {w.index + 1}"
+    pooled = len({id(v.source) for v in d.prep.windows}) > 1 and w.source is not None and w.source.path
+    what = f"{Path(w.source.path).stem}: release" if pooled else f"release {w.index + 1}"
     if w.start == "turning point":
-        ax.set_title(f"{what} (let go {w.release.t_release_s:.2f} s), "
-                     f"fitted from its first turning point, {w.t0:.2f} s", fontsize=9)
+        title = f"{what} (let go {w.release.t_release_s:.2f} s), fitted from its first turning point, {w.t0:.2f} s"
     else:
-        ax.set_title(f"{what} at {w.t0:.2f} s", fontsize=9)
+        title = f"{what} at {w.t0:.2f} s"
+    ax.set_title(textwrap.fill(title, width=60), fontsize=9)
     axr.plot(t, drake_base[w.index] - w.y, color="tab:red", lw=0.8, label="baseline, fitted")
     if d.chosen:
         axr.plot(t, drake_aug[w.index] - w.y, color="tab:blue", lw=0.8, label="augmented, fitted")
     cvb = d.baseline.cv_pred.get(w.index)
     if cvb is not None and np.any(np.isfinite(cvb)):
-        axr.plot(t, cvb - w.y, color="tab:purple", lw=0.7, ls="--", label="baseline, held out")
+        # broad and pale beneath the fitted lines: where a held-out curve equals its fit both show
+        axr.plot(t, cvb - w.y, color="tab:purple", lw=2.4, alpha=0.4, zorder=1, label="baseline, held out")
     cv = d.final.cv_pred.get(w.index)
     if d.chosen and cv is not None and np.any(np.isfinite(cv)):
-        axr.plot(t, cv - w.y, color="tab:green", lw=0.8, ls="--", label="augmented, held out")
+        axr.plot(t, cv - w.y, color="tab:green", lw=2.4, alpha=0.4, zorder=1, label="augmented, held out")
+    if len(d.prep.windows) == 1 and cvb is not None:
+        # a single release is held out in time blocks: the held-out curves jump where they meet
+        for lo, _ in time_blocks(w, d.settings.n_blocks)[1:]:
+            axr.axvline(t[lo], color="0.5", lw=0.6, ls=":")
+        axr.text(0.01, 0.02, "dotted: held-out blocks' edges", transform=axr.transAxes, fontsize=7, color="0.35")
     axr.axhline(0, color="k", lw=0.5)
     axr.set_xlabel("time since the window's start (s)")
 
