@@ -210,16 +210,16 @@ def _fig14_signed(ax, s: pd.DataFrame, contacts: list, m: pd.Series, names: dict
 
 def _fig14_absolute(ax_abs, s: pd.DataFrame, contacts: list, names: dict) -> None:
     """The mean |point error| over the same samples, which cannot cancel, on a log scale where
-    the small errors are visible too."""
+    the small errors are visible too: each model's mean a wide tick, its runs dots.  No bars: a
+    bar's length on a log axis is set by where the axis starts, not by the value."""
     mabs = s.groupby("contact").mape_percent.mean().reindex(contacts)
     shown = np.isfinite(mabs.values) & (mabs.values > 0)          # a log axis cannot show 0 or NaN
-    ax_abs.bar(np.arange(len(contacts))[shown], mabs.values[shown],
-               color=[CONTACT_COLOURS[c] for c, ok in zip(contacts, shown) if ok], alpha=0.85)
     ax_abs.set_yscale("log")
     for i, c in enumerate(contacts):
         r = s.mape_percent[(s.contact == c) & (s.mape_percent > 0)]
-        ax_abs.plot(np.full(len(r), i), r, "k.", ms=4)
+        ax_abs.plot(np.full(len(r), i), r, ".", color=CONTACT_COLOURS[c], ms=5, alpha=0.7)
         if shown[i]:
+            ax_abs.hlines(mabs[c], i - 0.32, i + 0.32, color=CONTACT_COLOURS[c], lw=3.5, label="_mean")
             ax_abs.annotate(f"{mabs[c]:.2f}%", (i, max(mabs[c], *r)), xytext=(0, 4), textcoords="offset points",
                             ha="center", va="bottom", fontsize=9,
                             bbox=dict(boxstyle="round,pad=0.15", fc="white", ec="none", alpha=0.8))
@@ -227,10 +227,13 @@ def _fig14_absolute(ax_abs, s: pd.DataFrame, contacts: list, names: dict) -> Non
             ax_abs.annotate("0%" if mabs[c] == 0 else "n/a", (i, 0.02), xycoords=("data", "axes fraction"),
                             ha="center", va="bottom", fontsize=9)
     if shown.any():
-        ax_abs.set_ylim(top=3.0 * float(np.nanmax(s.mape_percent)))
+        lo, hi = float(np.nanmin(mabs.values[shown])), float(np.nanmax(s.mape_percent))
+        ax_abs.set_ylim(0.5 * min(lo, float(s.mape_percent[s.mape_percent > 0].min())), 3.0 * hi)
+    ax_abs.set_xlim(-0.6, len(contacts) - 0.4)
     ax_abs.set_xticks(range(len(contacts)), [names[c] for c in contacts], fontsize=8)
     ax_abs.set_ylabel("mean |point error| over pressures (%)")
-    ax_abs.set_title("the same samples, absolute: errors cannot cancel", fontsize=9)
+    ax_abs.set_title("the same samples, absolute: errors cannot cancel\n(thick: mean over runs; dots: runs)",
+                     fontsize=9)
 
 
 def _pme_markdown(s: pd.DataFrame, agg: pd.DataFrame, contacts: list, m: pd.Series, names: dict) -> str:
