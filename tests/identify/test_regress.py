@@ -292,13 +292,13 @@ def test_prediction_band_with_unequal_standard_errors_by_hand():
 # --------------------------------------------------------------------------------------
 # Releases that scatter more than their errors: weights 1 / (se^2 + tau^2)
 # --------------------------------------------------------------------------------------
-def _amplitude_dependent_df(seed: int, tau: float = 0.0):
+def _amplitude_dependent_df(seed: int):
     """Three releases per pressure as on a membrane shell: two large ones, fitted loosely, damp
     less than the mean; a small one, fitted three times more tightly, damps more."""
     rng = np.random.default_rng(seed)
     shift = np.tile([-0.02, -0.02, 0.04], 5)          # mean zero at every pressure
     se = np.tile([0.015, 0.015, 0.005], 5)
-    z = A * np.exp(B * PRESSURES) + shift + rng.normal(0.0, se) + rng.normal(0.0, tau, PRESSURES.size)
+    z = A * np.exp(B * PRESSURES) + shift + rng.normal(0.0, se)
     return pd.DataFrame({"pressure_kpa": PRESSURES, "zeta": z, "zeta_se": se,
                          "omega_n_rad_s": C + D * PRESSURES + rng.normal(0.0, 0.03, PRESSURES.size),
                          "omega_n_se_rad_s": 0.03})

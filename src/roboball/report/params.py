@@ -20,9 +20,9 @@ import math
 from pathlib import Path
 
 from roboball.errors import RoboballError
-from roboball.metrics import pme_table
 from roboball.identify.friction.comparison import recommendation
 from roboball.identify.friction.results import try_read_fit
+from roboball.metrics import pme_table
 
 PRESSURES_KPA = (6.9, 10.3, 13.8, 17.2, 20.7)
 

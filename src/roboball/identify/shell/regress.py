@@ -15,11 +15,12 @@ of freedom; confidence and prediction bands come from the same covariance by the
 A decay table's releases (`fit_regressions`) are weighted by 1 / (se^2 + tau^2), not 1 / se^2.
 Repeated releases at one pressure can scatter far more than their fits' standard errors say:
 a membrane shell's damping depends on the release amplitude, and a small release is fitted
-more tightly *and* damps more (docs/modelling.md).  Weighted by 1 / se^2 alone, the curve follows the small releases and passes above
-two of the three releases at every pressure.  tau, the scatter between releases that their
-errors do not explain, is the Paule-Mandel estimate of meta-analysis (the generalised
-chi-square equals its degrees of freedom; DerSimonian & Kacker 2007), so a release counts by its
-total error and the curve estimates the mean over the releases recorded.
+more tightly *and* damps more (docs/modelling.md).  Weighted by 1 / se^2 alone, the curve
+follows the small releases and passes above two of the three releases at every pressure.  tau,
+the scatter between releases that their errors do not explain, is the Paule-Mandel estimate of
+meta-analysis (the generalised chi-square equals its degrees of freedom; DerSimonian & Kacker
+2007), so a release counts by its total error and the curve estimates the mean over the
+releases recorded.
 """
 from __future__ import annotations
 
@@ -222,9 +223,7 @@ def between_release_sd(fit: Callable[..., RegressionFit], p_kpa, y, se) -> float
     """Paule-Mandel tau: the scatter between releases that their standard errors `se` do not
     explain, the tau >= 0 at which `fit(p_kpa, y, sqrt(se^2 + tau^2))` leaves a chi-square equal
     to its degrees of freedom (0 when the errors explain the scatter)."""
-    p_kpa, y, se = (np.asarray(a, dtype=float) for a in (p_kpa, y, se))
-    ok = np.isfinite(p_kpa) & np.isfinite(y) & np.isfinite(se) & (se > 0)    # the rows `fit` keeps
-    p_kpa, y, se = p_kpa[ok], y[ok], se[ok]
+    p_kpa, y, se = _clean(p_kpa, y, se, "between-release scatter")      # the rows `fit` keeps
 
     def excess(tau2: float) -> float:
         s = np.sqrt(se ** 2 + tau2)
