@@ -126,9 +126,12 @@ def _decay_df(seed=0, with_se=True):
 
 def test_regression_table():
     table = regression_table(_decay_df())
-    assert list(table["name"]) == ["zeta_a", "zeta_b", "omega_n_c", "omega_n_d"]
-    assert list(table["unit"]) == ["1", "1/kPa", "rad/s", "rad/s/kPa"]
+    assert list(table["name"]) == ["zeta_a", "zeta_b", "zeta_tau", "omega_n_c", "omega_n_d", "omega_n_tau"]
+    assert list(table["unit"]) == ["1", "1/kPa", "1", "rad/s", "rad/s/kPa", "rad/s"]
     assert (table["n_points"] == 15).all()
+    scatter = table[table["name"].str.endswith("_tau")]
+    assert (scatter.ci95_low <= scatter.value).all() and (scatter.value < scatter.ci95_high).all()
+    table = table[~table["name"].str.endswith("_tau")]
     truth = [A, B, C, D]
     for (_, row), tv in zip(table.iterrows(), truth):
         assert row["ci95_low"] < row["value"] < row["ci95_high"]
@@ -351,3 +354,36 @@ def test_between_release_scatter_is_recovered_and_its_intervals_cover():
             hits[name] += lo <= true <= hi
     assert np.mean(taus) == pytest.approx(0.02, rel=0.15)
     assert all(v >= 90 for v in hits.values()), hits
+
+
+def test_between_release_scatter_interval_covers_the_planted_scatter():
+    """Q-profile 95% interval on tau (planted 0.02, errors 0.004-0.01): it holds the estimate and
+    covers the planted value in 88-100 of 100 seeds; with no scatter planted its low end is 0."""
+    from roboball.identify.shell.regress import between_release_sd, between_release_sd_interval
+
+    se = np.tile([0.01, 0.007, 0.004], 5)
+    hits = 0
+    for seed in SEEDS:
+        rng = np.random.default_rng(40_000 + seed)
+        z = A * np.exp(B * PRESSURES) + rng.normal(0.0, se) + rng.normal(0.0, 0.02, PRESSURES.size)
+        lo, hi = between_release_sd_interval(fit_zeta_exp, PRESSURES, z, se)
+        assert lo <= between_release_sd(fit_zeta_exp, PRESSURES, z, se) <= hi
+        hits += lo <= 0.02 <= hi
+    assert 88 <= hits <= 100, hits
+    z = A * np.exp(B * PRESSURES) + np.random.default_rng(1).normal(0.0, 0.002, PRESSURES.size)
+    assert between_release_sd_interval(fit_zeta_exp, PRESSURES, z, np.full(PRESSURES.size, 0.01))[0] == 0.0
+
+
+def test_regression_table_carries_the_scatter_with_its_interval_and_the_laws_still_read_it(tmp_path):
+    from roboball.identify.shell.regress import regression_table
+    from roboball.sim.schedule import ShellLaws
+
+    t = regression_table(_amplitude_dependent_df(3)).set_index("name")
+    assert list(t.index) == ["zeta_a", "zeta_b", "zeta_tau", "omega_n_c", "omega_n_d", "omega_n_tau"]
+    assert t.unit["zeta_tau"] == "1" and t.unit["omega_n_tau"] == "rad/s"
+    assert t.ci95_low["zeta_tau"] < t.value["zeta_tau"] < t.ci95_high["zeta_tau"]
+    assert "zeta_tau" not in regression_table(_amplitude_dependent_df(3), weighted=False).name.values
+    path = tmp_path / "shell_regression.csv"
+    t.reset_index().to_csv(path, index=False)
+    laws = ShellLaws.from_regression_csv(path)
+    assert laws.zeta_a == pytest.approx(t.value["zeta_a"])

@@ -56,7 +56,8 @@ def fig10(points: str, regression: str, sims: str, out_png: str, robot_yaml: str
                     label="recorded releases (95% CI)")
         lo, hi = fit.band(pp)
         ax.plot(pp, fit.predict(pp), color="k", lw=1.5,
-                label=f"regression: {law}\n(scatter between releases $\\tau$ = {fit.tau:.3g}"
+                label=f"regression: {law}\n(scatter between releases $\\tau$ = {fit.tau:.2g}"
+                      + ("" if fit.tau_ci is None else f" [{fit.tau_ci[0]:.2g}, {fit.tau_ci[1]:.2g}]")
                       + ("" if unit == "-" else f" {unit}") + ")")
         ax.fill_between(pp, lo, hi, color="k", alpha=0.12, label="95% confidence band")
         shown = [c for c in CONTACT_MODELS if c in set(sim.contact)]

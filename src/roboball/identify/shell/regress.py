@@ -67,7 +67,9 @@ class RegressionFit:
     se: np.ndarray | None
     model: Callable[[np.ndarray, np.ndarray], np.ndarray] = field(repr=False)
     gradient: Callable[[np.ndarray, np.ndarray], np.ndarray] = field(repr=False)
+    response: tuple[str, str] = ("y", "1")    # the fitted quantity's name and unit
     tau: float = 0.0    # scatter between releases beyond their errors (the value's unit); in `se`
+    tau_ci: tuple[float, float] | None = None    # its 95% Q-profile interval, when it was estimated
 
     def predict(self, x) -> np.ndarray:
         return self.model(np.asarray(x, dtype=float), self.params)
@@ -109,6 +111,11 @@ class RegressionFit:
             out.append({"name": name, "value": self.value(name), "se": self.stderr(name),
                         "ci95_low": lo, "ci95_high": hi, "unit": unit,
                         "n_points": len(self.x), "dof": self.dof})
+        if self.tau_ci is not None:      # the scatter the weights carry, with its own interval
+            name, unit = self.response
+            out.append({"name": f"{name}_tau", "value": self.tau, "se": float("nan"),
+                        "ci95_low": self.tau_ci[0], "ci95_high": self.tau_ci[1], "unit": unit,
+                        "n_points": len(self.x), "dof": self.dof})
         return out
 
 
@@ -135,7 +142,7 @@ def _clean(x, y, se, what: str):
     return x, y, w
 
 
-def _finish(label, names, units, model, gradient, x, y, se, theta) -> RegressionFit:
+def _finish(label, names, units, model, gradient, x, y, se, theta, response) -> RegressionFit:
     sig = se if se is not None else np.ones_like(y)
     G = gradient(x, theta) / sig[:, None]
     r = (y - model(x, theta)) / sig
@@ -148,7 +155,7 @@ def _finish(label, names, units, model, gradient, x, y, se, theta) -> Regression
     scale = float(np.sqrt(np.mean(sig ** 2)))
     return RegressionFit(label=label, names=names, units=units, params=np.asarray(theta, dtype=float),
                          cov=cov, dof=dof, s2=s2, sigma_scale=scale, x=x, y=y, se=se,
-                         model=model, gradient=gradient)
+                         model=model, gradient=gradient, response=response)
 
 
 def _exp_model(x, th):
@@ -187,7 +194,7 @@ def fit_zeta_exp(p_kpa: Sequence[float], zeta: Sequence[float], zeta_se: Sequenc
                         jac=lambda th: _exp_grad(x, th) / sig[:, None],
                         method="lm", xtol=1e-14, ftol=1e-14, gtol=1e-14, max_nfev=10_000)
     return _finish("zeta(p) = a exp(b p)", ("zeta_a", "zeta_b"), ("1", "1/kPa"),
-                   _exp_model, _exp_grad, x, y, se, res.x)
+                   _exp_model, _exp_grad, x, y, se, res.x, ("zeta", "1"))
 
 
 def fit_omega_linear(p_kpa: Sequence[float], omega: Sequence[float], se: Sequence[float] | None = None) -> RegressionFit:
@@ -198,7 +205,7 @@ def fit_omega_linear(p_kpa: Sequence[float], omega: Sequence[float], se: Sequenc
     A = np.column_stack([np.ones_like(x), x]) / sig[:, None]
     theta, *_ = np.linalg.lstsq(A, y / sig, rcond=None)
     return _finish("omega_n(p) = c + d p", ("omega_n_c", "omega_n_d"), ("rad/s", "rad/s/kPa"),
-                   _lin_model, _lin_grad, x, y, w, theta)
+                   _lin_model, _lin_grad, x, y, w, theta, ("omega_n", "rad/s"))
 
 
 @dataclass
@@ -219,24 +226,51 @@ class Regressions:
         return self.omega_n.band(p_kpa, level, kind)
 
 
-def between_release_sd(fit: Callable[..., RegressionFit], p_kpa, y, se) -> float:
-    """Paule-Mandel tau: the scatter between releases that their standard errors `se` do not
-    explain, the tau >= 0 at which `fit(p_kpa, y, sqrt(se^2 + tau^2))` leaves a chi-square equal
-    to its degrees of freedom (0 when the errors explain the scatter)."""
-    p_kpa, y, se = _clean(p_kpa, y, se, "between-release scatter")      # the rows `fit` keeps
+def _solve_tau2(fit: Callable[..., RegressionFit], p_kpa, y, se, target: float) -> float:
+    """The tau^2 >= 0 at which `fit(p_kpa, y, sqrt(se^2 + tau^2))` leaves the generalised
+    chi-square Q = `target` (0 when Q is already at or below it with no scatter).  Q falls from
+    its unweighted-by-tau value toward 0 as tau grows, so one root brackets it."""
 
     def excess(tau2: float) -> float:
         s = np.sqrt(se ** 2 + tau2)
         f = fit(p_kpa, y, s)
         r = (y - f.predict(p_kpa)) / s
-        return float(r @ r) - f.dof
+        return float(r @ r) - target
 
     if excess(0.0) <= 0.0:
         return 0.0
     top = float(np.var(y)) + float(np.max(se)) ** 2
-    while excess(top) > 0.0:      # falls to -dof as tau grows: the bracket is found
+    while excess(top) > 0.0:      # falls to -target as tau grows: the bracket is found
         top *= 4.0
-    return math.sqrt(brentq(excess, 0.0, top, xtol=1e-14 * top, rtol=1e-12))
+    return brentq(excess, 0.0, top, xtol=1e-14 * top, rtol=1e-12)
+
+
+def between_release_sd(fit: Callable[..., RegressionFit], p_kpa, y, se) -> float:
+    """Paule-Mandel tau: the scatter between releases that their standard errors `se` do not
+    explain, the tau >= 0 at which `fit(p_kpa, y, sqrt(se^2 + tau^2))` leaves a chi-square equal
+    to its degrees of freedom (0 when the errors explain the scatter)."""
+    p_kpa, y, se = _clean(p_kpa, y, se, "between-release scatter")      # the rows `fit` keeps
+    return math.sqrt(_solve_tau2(fit, p_kpa, y, se, float(len(y) - 2)))
+
+
+def between_release_sd_interval(fit: Callable[..., RegressionFit], p_kpa, y, se,
+                                level: float = 0.95) -> tuple[float, float]:
+    """Q-profile interval on tau (Viechtbauer 2007): the taus whose generalised chi-square lies
+    between the chi-square distribution's (1 -+ level) / 2 quantiles on n - 2 degrees of freedom.
+
+    Args:
+        fit: `fit_zeta_exp` or `fit_omega_linear`.
+        p_kpa, y, se: the releases' pressures, values and standard errors.
+        level: coverage of the interval.
+
+    Returns:
+        (low, high) of tau, in the values' unit; low is 0 when no scatter cannot be excluded.
+    """
+    p_kpa, y, se = _clean(p_kpa, y, se, "between-release scatter")
+    dof = len(y) - 2
+    hi_q, lo_q = stats.chi2.ppf([0.5 + level / 2.0, 0.5 - level / 2.0], dof)
+    return (math.sqrt(_solve_tau2(fit, p_kpa, y, se, float(hi_q))),
+            math.sqrt(_solve_tau2(fit, p_kpa, y, se, float(lo_q))))
 
 
 def _heterogeneous(fit: Callable[..., RegressionFit], p_kpa, y, se) -> RegressionFit:
@@ -246,6 +280,7 @@ def _heterogeneous(fit: Callable[..., RegressionFit], p_kpa, y, se) -> Regressio
     tau = between_release_sd(fit, p_kpa, y, se)
     out = fit(p_kpa, y, np.sqrt(np.asarray(se, dtype=float) ** 2 + tau ** 2))
     out.tau = tau
+    out.tau_ci = between_release_sd_interval(fit, p_kpa, y, se)
     return out
 
 
