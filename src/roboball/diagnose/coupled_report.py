@@ -11,6 +11,7 @@ overlay.png into the output folder.
 from __future__ import annotations
 
 import math
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -157,7 +158,12 @@ def diagnose_coupled(reps, laws, friction, out_dir, log=None) -> dict:
     out = output_folder(out_dir, files=OUTPUT_FILES)
     write_json_atomic(out / "diagnosis.json", js)
     write_csv_atomic(_predictions(reps, pred_base, pred_aug), out / "predictions.csv")
-    _overlay(reps, pred_base, pred_aug, out / "overlay.png")
+    named = ", ".join(key(*c) for c in chosen) or "nothing added"
+    _overlay(reps, pred_base, pred_aug, out / "overlay.png",
+             f"steer_coupled diagnosis at the fitted {pressure.p_kpa:.1f} kPa: augmented = baseline + {named}, "
+             + ("fitted on the first two thirds" if len(reps) == 1 else
+                f"fitted on all {len(reps)} repeats (held-out figures: each repeat left out in turn)"),
+             cut_s=float(reps[0].t[train[reps[0].name]][-1]) if len(reps) == 1 else None)
     write_text_atomic(out / "report.md", report_md(js))
     return js
 
@@ -174,7 +180,7 @@ def _predictions(reps, base, aug) -> pd.DataFrame:
     return pd.concat(parts, ignore_index=True)
 
 
-def _overlay(reps, base, aug, path) -> None:
+def _overlay(reps, base, aug, path, title: str, cut_s: float | None = None) -> None:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -187,11 +193,14 @@ def _overlay(reps, base, aug, path) -> None:
             ax.plot(r.t, r.coord(c), "k.", ms=2.5, label="recording")
             ax.plot(r.t, base[r.name][c], color="#1f77b4", label="baseline (injected shell)")
             ax.plot(r.t, aug[r.name][c], color="#2ca02c", lw=2, label="augmented")
+            if cut_s is not None:     # one repeat: its last third is held out
+                ax.axvline(cut_s, color="0.4", ls=":", lw=1, label="held out from here")
             ax.set_ylabel(c.replace("_rad", " (rad)").replace("_", " ") if j == 0 else "")
             ax.grid(alpha=0.3)
         axes[1, j].set_xlabel("time since let-go (s)")
         axes[0, j].set_title(r.name, fontsize=9)
     axes[0, 0].legend(fontsize=8)
+    fig.suptitle(textwrap.fill(title, width=int(55 * len(reps))), fontsize=10)
     fig.tight_layout()
     savefig_atomic(fig, path, format="png")
     plt.close(fig)

@@ -54,8 +54,8 @@ def _grid_panels(ax_w, ax_z, grid: pd.DataFrame, table: pd.DataFrame) -> None:
     ax_z.set_yscale("log")
     ax_w.set_title("(a) Drake grid: $\\omega_n$ follows the modulus", fontsize=9)
     ax_z.set_title("(b) Drake grid: $\\zeta$ follows the dissipation (and the modulus)", fontsize=9)
-    ax_w.legend(fontsize=6, ncol=2)
-    ax_z.legend(fontsize=6, ncol=2)
+    ax_w.legend(fontsize=7.5, ncol=2)
+    ax_z.legend(fontsize=7.5, ncol=2)
 
 
 def _volume_panel(ax, table: pd.DataFrame, law: dict, authors: list, robot) -> None:
@@ -91,7 +91,7 @@ def _volume_panel(ax, table: pd.DataFrame, law: dict, authors: list, robot) -> N
     ax.set_ylabel("contact volume V = $f_n$ / modulus (m$^3$)")
     ax.set_title("(c) contact volume V(p) (eq. 10) through the calibrated moduli\n"
                  "(the authors' test pressure was not logged: lines)", fontsize=9)
-    ax.legend(fontsize=6, loc="upper left")
+    ax.legend(fontsize=7.5, loc="upper left")
 
 
 def _dissipation_panel(ax, table: pd.DataFrame, regression: str, authors: list, robot) -> None:
@@ -118,7 +118,7 @@ def _dissipation_panel(ax, table: pd.DataFrame, regression: str, authors: list, 
     ax.set_xlabel("shell gauge pressure p (kPa)")
     ax.set_ylabel("Hunt-Crossley dissipation d (s/m)")
     ax.set_title("(d) dissipation: calibrated vs eq. 11", fontsize=9)
-    ax.legend(fontsize=6, loc="lower left")
+    ax.legend(fontsize=7.5, loc="lower left")
 
 
 def _markdown(table: pd.DataFrame, law: dict, authors: list, robot) -> str:
