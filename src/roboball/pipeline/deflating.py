@@ -16,6 +16,20 @@ from roboball.errors import RoboballError
 STAGES = ("deflating_ramp",)
 
 
+def descent_spec(contact: str, dt: float = 1e-3, dissipation_scale: float = 1.0, modulus_scale: float = 1.0,
+                 geometry: str = "planar", friction_params: dict | None = None):
+    """The Fig. S1 descent's simulation: ramp, Majd friction on both joints, the injected shell in
+    the drive direction only; the scales apply to the hydroelastic shell."""
+    from roboball.sim.spec import ShellParams, SimSpec
+
+    hydro = contact == "hydroelastic"
+    shell = ShellParams(injected_steer=False, injected_drive=True, geometry=geometry,
+                        dissipation_scale=dissipation_scale if hydro else 1.0,
+                        modulus_scale=modulus_scale if hydro else 1.0)
+    return SimSpec(kind="ramp", contact=contact, friction={"steer": "majd", "drive": "majd"},
+                   friction_params={k: v for k, v in (friction_params or {}).items() if v}, shell=shell, dt=dt)
+
+
 def run_cases(laws, schedule, contacts=("injected", "hydroelastic"), duration: float = 3.0, release: float = 0.0,
               dt: float = 1e-3, dissipation_scale: float = 1.0, modulus_scale: float = 1.0, geometry: str = "planar",
               friction_params: dict | None = None, hydro_update_s: float = 0.05) -> pd.DataFrame:
@@ -23,7 +37,6 @@ def run_cases(laws, schedule, contacts=("injected", "hydroelastic"), duration: f
     model; long table: contact, case, time_s, pressure_kpa, drive_rate_rad_s."""
     from roboball.sim.schedule import PressureSchedule
     from roboball.sim.schedule_run import simulate_schedule
-    from roboball.sim.spec import ShellParams, SimSpec
 
     p_start, p_end = schedule.pressures_kpa[0], schedule.pressures_kpa[-1]
     cases = [(f"constant {p_start:g} kPa", PressureSchedule.constant(p_start)),
@@ -31,12 +44,7 @@ def run_cases(laws, schedule, contacts=("injected", "hydroelastic"), duration: f
              ("schedule", schedule)]
     rows = []
     for contact in contacts:
-        hydro = contact == "hydroelastic"
-        shell = ShellParams(injected_steer=False, injected_drive=True, geometry=geometry,
-                            dissipation_scale=dissipation_scale if hydro else 1.0,
-                            modulus_scale=modulus_scale if hydro else 1.0)
-        spec = SimSpec(kind="ramp", contact=contact, friction={"steer": "majd", "drive": "majd"},
-                       friction_params={k: v for k, v in (friction_params or {}).items() if v}, shell=shell, dt=dt)
+        spec = descent_spec(contact, dt, dissipation_scale, modulus_scale, geometry, friction_params)
         for case, sched in cases:
             df = simulate_schedule(spec, sched, laws, release, duration, sample_rate_hz=100.0,
                                    hydro_update_s=hydro_update_s)
