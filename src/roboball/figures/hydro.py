@@ -53,9 +53,8 @@ def _grid_panels(ax_w, ax_z, grid: pd.DataFrame, table: pd.DataFrame) -> None:
     ax_z.set_ylabel("Drake damping ratio $\\zeta$ (-)")
     ax_z.set_yscale("log")
     ax_w.set_title("(a) Drake grid: $\\omega_n$ follows the modulus", fontsize=9)
-    ax_z.set_title("(b) Drake grid: $\\zeta$ follows the dissipation (and the modulus)", fontsize=9)
-    ax_w.legend(fontsize=7.5, ncol=2)
-    ax_z.legend(fontsize=7.5, ncol=2)
+    ax_z.set_title("(b) Drake grid: $\\zeta$ follows the dissipation (and the modulus); key in (a)", fontsize=9)
+    ax_w.legend(fontsize=7.5, ncol=2, loc="upper right")    # one key for both: (b) has no empty corner
 
 
 def _volume_panel(ax, table: pd.DataFrame, law: dict, authors: list, robot) -> None:
@@ -86,7 +85,7 @@ def _volume_panel(ax, table: pd.DataFrame, law: dict, authors: list, robot) -> N
                    label=f"authors: {a['label']}, {a['modulus_pa']:.3g} Pa")
     ax.set_yscale("log")
     lo, hi = ax.get_ylim()
-    ax.set_ylim(lo, hi * (hi / lo) ** 0.5)           # room above the data for the legend
+    ax.set_ylim(lo, hi * (hi / lo) ** 1.1)           # room above the data for the legend
     ax.set_xlabel("shell gauge pressure p (kPa)")
     ax.set_ylabel("contact volume V = $f_n$ / modulus (m$^3$)")
     ax.set_title("(c) contact volume V(p) (eq. 10) through the calibrated moduli\n"
