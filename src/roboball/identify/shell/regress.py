@@ -264,7 +264,7 @@ def between_release_sd_interval(fit: Callable[..., RegressionFit], p_kpa, y, se,
         level: coverage of the interval.
 
     Returns:
-        (low, high) of tau, in the values' unit; low is 0 when no scatter cannot be excluded.
+        (low, high) of tau, in the values' unit; low is 0 when the releases are consistent with no scatter.
     """
     p_kpa, y, se = _clean(p_kpa, y, se, "between-release scatter")
     dof = len(y) - 2
@@ -312,6 +312,7 @@ def fit_regressions(decay_df: pd.DataFrame, weighted: bool = True) -> Regression
 
 def regression_table(decay_df: pd.DataFrame, weighted: bool = True, level: float = 0.95) -> pd.DataFrame:
     """One row per regression parameter (zeta_a, zeta_b, omega_n_c, omega_n_d): name,
-    value, se, ci95_low, ci95_high, unit, n_points, dof.  The band evaluators are on
+    value, se, ci95_low, ci95_high, unit, n_points, dof; when weighted, also each regression's
+    scatter between releases (zeta_tau, omega_n_tau: se empty, Q-profile interval).  The band evaluators are on
     :func:`fit_regressions`' result."""
     return fit_regressions(decay_df, weighted=weighted).table(level)
