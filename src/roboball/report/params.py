@@ -110,7 +110,9 @@ def _shell(results: Path, missing: list) -> list:
         if key not in v.index:
             raise RoboballError(f"{path}: missing row '{key}'")
     lines = ["## Shell regressions (Fig. 10)", "",
-             "zeta(p) = a exp(b p), omega_n(p) = c + d p, p in kPa; 95% intervals of the fit.", ""]
+             "zeta(p) = a exp(b p), omega_n(p) = c + d p, p in kPa; 95% intervals of the fit. "
+             "`*_tau`: the scatter between releases beyond their fits' errors, which weights each release "
+             "(Paule-Mandel; 95% Q-profile interval).", ""]
     rows = []
     for r in t.itertuples():
         ci = f"[{_fmt(r.ci95_low)}, {_fmt(r.ci95_high)}]" if hasattr(r, "ci95_low") else "n/a"
