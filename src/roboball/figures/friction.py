@@ -268,7 +268,8 @@ def corner_plot(fit: str, out_png: str) -> None:
     # constrained layout) would ignore: the figure gets none, and room at the top for the title
     fig = plt.figure(figsize=(2.0 * k + 1.4, 2.0 * k + 1.7), layout="none")
     corner.corner(s.to_numpy(), fig=fig, labels=labels, quantiles=[0.025, 0.5, 0.975], show_titles=True,
-                  title_fmt=".3g", title_kwargs={"fontsize": 8}, label_kwargs={"fontsize": 8})
+                  title_fmt=".3g", title_kwargs={"fontsize": 8}, label_kwargs={"fontsize": 8},
+                  max_n_ticks=4)            # five rotated labels per 2-inch panel ran into the next panel's
     for ax in fig.axes:
         ax.tick_params(labelsize=7)
     fig.subplots_adjust(top=1.0 - 1.2 / (2.0 * k + 1.7), left=0.9 / (2.0 * k + 1.4), bottom=0.9 / (2.0 * k + 1.7))
