@@ -4,12 +4,12 @@
 
 Figs. 13 and 14 score the diagnosed model of each ramp run with the effects of the pooled
 diagnosis of the *other* runs at its pressure (results/diagnose/heldout/<run>), at their fitted
-values.  This script reruns that Drake descent (roboball.pipeline.diagnosis.ramp_diagnosed's
-spec, on the ingested recording, from the same release instant, scored the same way) with each diagnosed parameter at the low and the high
-end of its 95% interval, the others at their values, and prints each run's PME and mean |error|,
-then the mean PME per pressure at the fitted value and at the two ends.  It shows whether a
-difference in PME between models is larger than what the diagnosis itself leaves open.  Needs
-`make figures` first.  About 1 min.
+values.  This script reruns that Drake descent (roboball.pipeline.diagnosis.diagnosed_descent, the
+pipeline's own, on the ingested recording) with each diagnosed parameter at the low and the high end
+of its 95% interval, the others at their values, and prints each run's PME and mean |error|, then
+the mean PME per pressure at the fitted value and at the two ends.  It shows whether a difference
+in PME between models is larger than what the diagnosis itself leaves open.  Needs `make figures`
+first.  About 10 s.
 """
 from __future__ import annotations
 
@@ -23,23 +23,15 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "src"))
 
-from roboball.diagnose.drake import effect_term, ramp_spec  # noqa: E402
 from roboball.ingest.recording import read_recording  # noqa: E402
 from roboball.metrics import speed_errors  # noqa: E402
-from roboball.pipeline.diagnosis import baseline_friction, consensus_effects  # noqa: E402
-from roboball.pipeline.simulation import ramp_window  # noqa: E402
-from roboball.reduced.models import model_for  # noqa: E402
-from roboball.sim.scenarios import simulate  # noqa: E402
+from roboball.pipeline.diagnosis import baseline_friction, consensus_effects, diagnosed_descent  # noqa: E402
 
 
 def descent(rec, releases: Path, effects: dict, friction: dict) -> dict:
     """Eq. 12's scores of the diagnosed model with `effects` on one recorded run."""
-    tt, w_e, pipe0 = ramp_window(rec, str(releases))
-    angle = rec.meta.get("ramp_angle_deg")
-    term = effect_term(model_for("ramp", ramp_angle_deg=angle), effects)
-    spec = ramp_spec(rec.pressure_kpa, angle, [term] if term is not None else [], 0.001, friction_params=friction)
-    df = simulate(spec, pipe0, float(tt[-1]) + 0.05, sample_rate_hz=200.0)
-    return speed_errors(w_e, np.interp(tt, df.time_s.to_numpy(), df.drive_rate_rad_s.to_numpy()))
+    _, w_e, w_s, _ = diagnosed_descent(rec, str(releases), effects, friction)
+    return speed_errors(w_e, w_s)
 
 
 def main() -> None:

@@ -45,10 +45,11 @@ def _grid_panels(ax_w, ax_z, grid: pd.DataFrame, table: pd.DataFrame) -> None:
     # sit on one point at the softest modulus).
     edge = _at_bound(table)
     for mask, fill, label in ((~edge, TUNED, "fits (Drake)"), (edge, "none", f"fits at the grid's bound ({_pressures(table[edge])})")):
+        if not mask.any():
+            continue
         for ax, col in ((ax_w, "omega_n_drake_rad_s"), (ax_z, "zeta_drake")):
-            if mask.any():
-                ax.plot(table.hydro_modulus_pa[mask], table[col][mask], "*", color=TUNED, mfc=fill, ms=10, mec="k",
-                        label=label)
+            ax.plot(table.hydro_modulus_pa[mask], table[col][mask], "*", color=TUNED, mfc=fill, ms=10, mec="k",
+                    label=label)
     ax_w.set_ylabel("Drake natural frequency $\\omega_n$ (rad/s)")
     ax_z.set_ylabel("Drake damping ratio $\\zeta$ (-)")
     ax_z.set_yscale("log")

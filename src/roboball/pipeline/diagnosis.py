@@ -81,26 +81,33 @@ def describe(effects: dict) -> str:
         or "none"
 
 
-def ramp_diagnosed(recording: str, releases: str, diagnoses: list, out_csv: str, out_trace: str = "",
-                   dt: float = 0.001) -> None:
-    """Ramp descent of one recorded run with the diagnosed model (effects from `diagnoses`, the
-    other runs' diagnosis.json files), scored by PME like the paper's contact models."""
+def diagnosed_descent(rec, releases: str, effects: dict, friction: dict, dt: float = 0.001):
+    """The diagnosed model's Drake descent of one recorded run (`rec`, read), from the release
+    instant the paper's models start from: (times, measured drive rate, simulated drive rate) on
+    eq. 12's samples, and the pipe angle it starts at."""
     from roboball.diagnose.drake import effect_term, ramp_spec
     from roboball.reduced.models import model_for
-    from roboball.ingest.recording import read_recording
     from roboball.sim.scenarios import simulate
 
-    if not diagnoses:
-        raise RoboballError(f"{recording}: no diagnoses of other runs to take the diagnosed effects from")
-    rec = read_recording(recording)
     tt, w_e, pipe0 = ramp_window(rec, releases)
-    effects = consensus_effects(diagnoses)
-    friction = baseline_friction(diagnoses)
     angle = rec.meta.get("ramp_angle_deg")
     term = effect_term(model_for("ramp", ramp_angle_deg=angle), effects)
     spec = ramp_spec(rec.pressure_kpa, angle, [term] if term is not None else [], dt, friction_params=friction)
     df = simulate(spec, pipe0, float(tt[-1]) + 0.05, sample_rate_hz=200.0)
-    w_s = np.interp(tt, df.time_s.to_numpy(), df.drive_rate_rad_s.to_numpy())
+    return tt, w_e, np.interp(tt, df.time_s.to_numpy(), df.drive_rate_rad_s.to_numpy()), pipe0
+
+
+def ramp_diagnosed(recording: str, releases: str, diagnoses: list, out_csv: str, out_trace: str = "",
+                   dt: float = 0.001) -> None:
+    """Ramp descent of one recorded run with the diagnosed model (effects from `diagnoses`, the
+    other runs' diagnosis.json files), scored by PME like the paper's contact models."""
+    from roboball.ingest.recording import read_recording
+
+    if not diagnoses:
+        raise RoboballError(f"{recording}: no diagnoses of other runs to take the diagnosed effects from")
+    rec = read_recording(recording)
+    effects = consensus_effects(diagnoses)
+    tt, w_e, w_s, pipe0 = diagnosed_descent(rec, releases, effects, baseline_friction(diagnoses), dt)
     row = {"recording": rec.path.stem if rec.path else recording, "pressure_kpa": rec.pressure_kpa,
            "contact": "diagnosed", **speed_errors(w_e, w_s), "initial_pipe_angle_rad": pipe0,
            "n_samples": int(tt.size), "ramp_time_s": float(tt[-1]), "diagnosed_effects": describe(effects),
