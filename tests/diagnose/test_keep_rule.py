@@ -168,6 +168,7 @@ def test_a_grid_start_that_diverged_to_nan_is_never_the_best_start():
     left it (real-like seed 6 steer_stand-03: the cubic stiffness concealed was never fitted)."""
     from roboball.diagnose.fit import Engine
     eng = Engine.__new__(Engine)
+    eng.model, eng.defaults = SimpleNamespace(held_params={}), {}
     eng.windows = {0: SimpleNamespace(y=np.zeros(5))}
     # the cost grows with |k3|; the most negative grid values diverged (NaN)
     eng.predict = lambda items: [(np.full(5, np.nan) if v["cubic_stiffness.k3"] < -50 else

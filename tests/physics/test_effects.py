@@ -148,10 +148,42 @@ def test_com_offset_takes_k_g_from_the_experiment_context():
     assert got == pytest.approx(0.49854247376, rel=1e-9)
 
 
-def test_stiction_bounds_are_the_former_amplitude_bounds_times_the_peak():
-    """The tau_s parameter's typical size and upper bound are 0.3 and 10 N m times
-    STICTION_PEAK (0.178 and 5.94 N m), so the fits start from the same grid as before."""
-    (p,) = fx.LIBRARY["stiction"].params
-    assert (p.name, p.unit, p.lo) == ("tau_s", "N m", 0.0)
-    assert p.hi == pytest.approx(5.936154838, rel=1e-8)
-    assert p.typical == pytest.approx(0.17808464514, rel=1e-8)
+def test_stiction_parameters_magnitude_from_the_former_grid_and_a_width_held_at_the_creep_band():
+    """tau_s starts from the former amplitude grid (typical 0.3 N m times STICTION_PEAK: 0.178
+    N m) and may reach 20 N m, rolling resistance's bound (a soft shell's breakaway from its
+    flat at low pressure is several N m).  v_s, the width, defaults to the creep band, so a law
+    given no width and a model that holds it are the joints' law as before."""
+    tau_s, v_s = fx.LIBRARY["stiction"].params
+    assert (tau_s.name, tau_s.unit, tau_s.lo, tau_s.hi, tau_s.default) == ("tau_s", "N m", 0.0, 20.0, 0.0)
+    assert tau_s.typical == pytest.approx(0.17808464514, rel=1e-8)
+    assert (v_s.name, v_s.unit, v_s.lo, v_s.default) == ("v_s", "rad/s", fx.V_STRIBECK, fx.V_STRIBECK)
+    assert min(v_s.grid_values()) > 10 * fx.V_STRIBECK      # fitted starts are wide humps
+
+
+@pytest.mark.parametrize("v_s", [fx.V_STRIBECK, 0.0025, 0.01, 0.3, 2.7, 10.0])
+def test_stiction_adds_at_most_tau_s_at_any_width(v_s):
+    """tau_s is the most the hump adds at every width: the law divides by its width's own peak
+    (stiction_peak), found on a fine grid here."""
+    qd = np.concatenate([np.geomspace(1e-7, 60.0, 2000001), -np.geomspace(1e-7, 60.0, 11)])
+    extra = np.abs(fx.stiction(0.0 * qd, qd, 0.37, v_s))
+    assert np.max(extra) == pytest.approx(0.37, rel=3e-6)
+    assert np.all(np.sign(fx.stiction(0.0 * qd, qd, 0.37, v_s)) == -np.sign(qd))
+
+
+def test_stiction_at_the_creep_band_is_the_joints_law_to_the_last_bit():
+    """A model that holds the width passes V_STRIBECK: the law must be the former one exactly
+    (the stand diagnoses and the blind benchmark are unchanged)."""
+    qd = np.linspace(-0.02, 0.02, 4001)
+    former = -(0.3 / fx.STICTION_PEAK) * np.exp(-(qd / fx.V_STRIBECK) ** 2) * np.tanh(qd / fx.V_EPS)
+    assert np.array_equal(fx.stiction(0.0 * qd, qd, 0.3), former)
+    assert np.array_equal(fx.stiction(0.0 * qd, qd, 0.3, np.full_like(qd, fx.V_STRIBECK)), former)
+
+
+def test_a_wide_stiction_hump_fades_over_its_width():
+    """At v_s = 2.7 rad/s (a soft shell rolling off its flat) the torque at rest is tau_s and at
+    v_s it is tau_s / e, to the peak's normalisation (1 - 5e-6 at this width)."""
+    got = fx.torque("stiction", np.zeros(3), np.array([0.05, 2.7, 8.0]), {"tau_s": 4.0, "v_s": 2.7})
+    assert got == pytest.approx([-4.0 * math.exp(-(0.05 / 2.7) ** 2), -4.0 * math.exp(-1.0), -4.0 * math.exp(-(8.0 / 2.7) ** 2)],
+                                rel=1e-5)
+    with pytest.raises(ValueError, match="tau_s"):
+        fx.torque("stiction", np.zeros(1), np.zeros(1), {"v_s": 2.7})

@@ -149,3 +149,44 @@ def test_the_ramp_fit_compares_the_model_averaged_like_the_recording():
     engine.fit([prob], max_iter=60, rtol=1e-9)
     for key, value in truth.items():
         assert abs(prob.values[key] / value - 1) < 0.005, (key, prob.values[key])
+
+
+def test_the_ramp_fits_the_shell_breakaways_width_and_a_joint_holds_it():
+    """On a joint stiction's width is the creep band's, held (roboball.physics.effects); on the
+    ramp it is fitted: a descent the reduced model makes with a breakaway of 4 N m fading over
+    2.7 rad/s and a quadratic drag (the campaign's 17.2 kPa diagnosis) is fitted back to both,
+    width included, from starts 25-50% off."""
+    import numpy as np
+
+    from roboball.diagnose.data import prepare, read
+    from roboball.diagnose.fit import Engine, Problem, effect_keys
+    from roboball.physics import effects as fx
+    from roboball.reduced.models import model_for
+    from roboball.reduced.ramp import RampModel
+
+    stand = model_for("steer_stand")
+    assert effect_keys(("stiction",), stand.held_params) == ["stiction.tau_s"]
+    model = RampModel(ramp_angle_deg=16.0)
+    assert "stiction" in model.candidates
+    assert effect_keys(("stiction",), model.held_params) == ["stiction.tau_s", "stiction.v_s"]
+
+    prep = prepare(read(REPO / "raw_data" / "ramp" / "ramp_17.2kpa_r1.csv"))
+    w = prep.windows[0]
+    truth = {"stiction.tau_s": 4.0, "stiction.v_s": 2.7, "quadratic_drag.c2": 0.022}
+    dt = 2.5e-4
+    tau = w.t - w.t0
+    Y, _ = model.simulate(np.zeros(1), {k: np.array([v]) for k, v in truth.items()}, int(tau[-1] / dt) + 2, dt)
+    from dataclasses import replace
+    w = replace(w, y=w.observe(np.interp(tau, dt * np.arange(Y.shape[0]), Y[:, 0], left=0.0)))
+    prep = replace(prep, windows=[w])
+    engine = Engine(model, prep)
+    prob = Problem(effects=("stiction", "quadratic_drag"),
+                   values={"stiction.tau_s": 3.0, "stiction.v_s": 1.5, "quadratic_drag.c2": 0.03},
+                   free=list(truth), masks={0: np.ones(w.n, bool)})
+    engine.fit([prob], max_iter=80, rtol=1e-10)
+    for key, value in truth.items():
+        assert abs(prob.values[key] / value - 1) < 0.01, (key, prob.values[key])
+
+    held = Engine(stand, prepare(read(REPO / "raw_data" / "steer_stand" / "steer_stand_r1.csv")))
+    assert held.defaults["stiction.v_s"] == fx.V_STRIBECK
+    assert held.info["stiction.v_s"][1:] == (fx.V_STRIBECK, fx.V_STRIBECK)

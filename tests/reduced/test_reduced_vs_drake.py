@@ -125,7 +125,8 @@ RAMP_DESCENT_S = 1.76     # the longest descent of the campaign's ramp runs, rel
     {"viscous_damping": {"c": 4.5}},                                        # the 6.9 kPa diagnosis
     {"viscous_damping": {"c": 3.65}, "rolling_resistance": {"tau_rr": 0.73}},
     {"viscous_damping": {"c": 2.6}, "rolling_resistance": {"tau_rr": 1.3}, "quadratic_drag": {"c2": 0.1}},
-], ids=["rr+damping", "damping", "damping+rr_pipeline", "all_three"])
+    {"stiction": {"tau_s": 7.8, "v_s": 3.2}, "quadratic_drag": {"c2": 0.0375}},   # the 6.9 kPa diagnosis
+], ids=["rr+damping", "damping", "damping+rr_pipeline", "all_three", "shell_breakaway+drag"])
 def test_planar_ramp_matches_drake_ramp_over_a_whole_descent(effects):
     """The diagnosis fits ramp effects with the planar model and Fig. 13/14 score them in Drake,
     so the two must agree at the scale eq. 12 compares models on (tenths of a percent): over

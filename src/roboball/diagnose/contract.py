@@ -40,6 +40,17 @@ RAMP_EXPLAINS = {
     "viscous_damping": "a torque proportional to the drive rate: the descent levels off towards a top speed",
     "quadratic_drag": "a torque growing with the square of the drive rate: the top speed is reached sooner",
     "rolling_resistance": "a constant torque opposing rolling: slower from the start, by the same torque at every speed",
+    "stiction": "a torque opposing rolling that is largest at rest and fades over v_s: slow to get going, then freer",
+}
+# ... and a breakaway in the rolling is the shell's, not a bearing's.
+RAMP_MECHANISM = {
+    "stiction": "the soft shell's resistance to rolling that fades with speed: rolling off the flat its weight "
+                "pressed into it at rest, and a hysteresis loss that falls once the skin is strained faster "
+                "than it relaxes",
+    "quadratic_drag": "a rolling loss growing with speed: air drag, or the contact's own damping (the leading "
+                      "edge of the patch is compressed faster the faster the shell rolls)",
+    "viscous_damping": "a rolling loss proportional to speed: the contact's own damping (the leading edge of the "
+                       "patch is compressed faster the faster the shell rolls), or a drive-train loss",
 }
 
 
@@ -55,22 +66,22 @@ def missing_physics(d: Diagnosis) -> list:
         entry = {"effect": e, "dof": d.model.dof, "parameters": params, "ci95": ci,
                  "delta_bic": _round(d.drop_bic.get(e, d.final.delta_bic), 5),
                  "explains": RAMP_EXPLAINS.get(e, eff.explains) if d.prep.kind == "ramp" else eff.explains,
-                 "mechanism": eff.mechanism_for(params)}
+                 "mechanism": (RAMP_MECHANISM.get(e) if d.prep.kind == "ramp" else None) or eff.mechanism_for(params)}
         alts = d.alternatives.get(e)
         if alts:
-            entry["alternatives"] = [_alternative(a) for a in alts]
+            entry["alternatives"] = [_alternative(a, d.prep.kind) for a in alts]
         out.append(entry)
     return out
 
 
-def _alternative(a: dict) -> dict:
+def _alternative(a: dict, kind: str) -> dict:
     """An equivalent explanation as diagnosis.json gives it."""
     eff = fx.LIBRARY[a["effect"]]
     params = {p: _round(v) for p, v in a["parameters"].items()}
     return {"effect": a["effect"], "parameters": params,
             "ci95": {p: [_round(lo), _round(hi)] for p, (lo, hi) in a["ci95"].items()},
             "rmse_heldout": _round(a["rmse_heldout"]), "delta_bic": _round(a["delta_bic"], 5),
-            "mechanism": eff.mechanism_for(params)}
+            "mechanism": (RAMP_MECHANISM.get(a["effect"]) if kind == "ramp" else None) or eff.mechanism_for(params)}
 
 
 def diagnosis_json(d: Diagnosis, located_base, drake_before=None, drake_after=None) -> dict:

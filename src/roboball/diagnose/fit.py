@@ -36,8 +36,10 @@ SPLIT_MIN = 2000      # batches at least this large are simulated window by wind
 PROJECT_PASSES = 3    # solves per step that hold parameters at the bounds their step would leave
 
 
-def effect_keys(effects) -> list:
-    return [f"{name}.{p.name}" for name in effects for p in fx.LIBRARY[name].params]
+def effect_keys(effects, held=()) -> list:
+    """The parameter keys ("effect.param") of `effects`, less those the model holds (`held`)."""
+    return [f"{name}.{p.name}" for name in effects for p in fx.LIBRARY[name].params
+            if f"{name}.{p.name}" not in held]
 
 
 @dataclass
@@ -81,9 +83,15 @@ class Engine:
         self.info = {}
         for b in model.base_params:
             self.info[b.name] = (b.typical, b.lo, b.hi)
+        # each effect parameter's value where a batch member does not set it: the model's held
+        # value, else the parameter's default (0 for a magnitude: the effect is absent)
+        self.defaults = {}
         for name in model.candidates:
             for p in fx.LIBRARY[name].params:
-                self.info[f"{name}.{p.name}"] = (p.typical, p.lo, p.hi)
+                key = f"{name}.{p.name}"
+                self.defaults[key] = float(model.held_params.get(key, p.default))
+                self.info[key] = ((p.typical, p.lo, p.hi) if key not in model.held_params
+                                  else (p.typical, self.defaults[key], self.defaults[key]))
         # How far a fitted release instant may move from the release finder's (s; 0 for a model
         # that fits no instant): bounds the fit and lengthens every simulation by as much.
         self.max_shift = model.ts_bound if "t_shift" in model.release_params else 0.0
@@ -153,7 +161,7 @@ class Engine:
     def _simulate(self, items, dt: float):
         """(y, ydot) at each item's window samples from one batched simulation of `items`."""
         B = len(items)
-        P = {k: np.fromiter((v.get(k, 0.0) for v, _ in items), float, B) for k in self.p_keys}
+        P = {k: np.fromiter((v.get(k, self.defaults.get(k, 0.0)) for v, _ in items), float, B) for k in self.p_keys}
         q0 = np.fromiter((v.get(f"q0@{w}", self.windows[w].q0) for v, w in items), float, B)
         ts = np.fromiter((v.get(f"ts@{w}", 0.0) for v, w in items), float, B)
         for h in self.hidden:
@@ -431,7 +439,9 @@ class Engine:
             if isinstance(bases, dict):
                 bases = [bases]
             eff = fx.LIBRARY[effect]
-            grids = [p.grid_values() for p in eff.params]
+            held = self.model.held_params
+            grids = [[self.defaults[f"{effect}.{p.name}"]] if f"{effect}.{p.name}" in held else p.grid_values()
+                     for p in eff.params]
             combos = [[]]
             for g in grids:
                 combos = [c + [x] for c in combos for x in g]

@@ -29,6 +29,7 @@ import numpy as np
 
 from roboball.physics import effects as fx
 from roboball.diagnose.data import Prepared
+from roboball.diagnose.fit import effect_keys
 from roboball.diagnose.scored import Scored
 from roboball.metrics import bic, lag1, n_eff
 
@@ -112,6 +113,9 @@ class KeepRule:
         for j, key in enumerate(p.free):
             sd = math.sqrt(max(cov[j, j], 0.0))
             out[key] = (p.values[key] - 1.96 * sd, p.values[key] + 1.96 * sd)
+        for key in effect_keys(sc.effects):      # a parameter the model holds is known exactly
+            if key in self.model.held_params:
+                out[key] = (p.values[key], p.values[key])
         return out
 
     def not_itself(self, sc: Scored, effect: str, ci: dict | None = None) -> str:

@@ -108,11 +108,12 @@ class Selector(KeepRule, CrossValidation):
     # ---- problems -----------------------------------------------------------------------------
     def free_keys(self, effects, windows=None) -> list:
         sensor = [] if self.baseline_holds_sensor and not effects else self.engine.sensor_free
-        return ([b.name for b in self.model.base_params] + sensor + effect_keys(effects)
+        return ([b.name for b in self.model.base_params] + sensor + effect_keys(effects, self.model.held_params)
                 + self.engine.release_keys(windows))
 
     def full_problem(self, effects, values) -> Problem:
-        return Problem(effects=tuple(effects), values=dict(values), free=self.free_keys(effects),
+        held = {k: self.engine.defaults[k] for k in effect_keys(effects) if k in self.model.held_params}
+        return Problem(effects=tuple(effects), values={**dict(values), **held}, free=self.free_keys(effects),
                        masks=dict(self.full_masks))
 
     def white(self, sc: Scored) -> bool:

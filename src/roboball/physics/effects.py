@@ -31,6 +31,12 @@ Conventions and modelling choices
   the hump adds to kinetic friction (its peak, at 1.03 mrad/s): the shape exp(-x^2) tanh(2 x),
   x = qd / V_STRIBECK, peaks at STICTION_PEAK = 0.594, and the law divides by it, so tau_s is
   the breakaway excess the law can hold, comparable with a real contact's F_s - F_c.
+  On a joint the width is held there (`v_s` = V_STRIBECK, roboball.reduced.base.ReducedModel.
+  held_params).  A soft shell rolling down a ramp breaks away differently: it rests on the flat
+  its weight presses into it and must roll off it, which resists for the first part of a radian
+  of rolling, up to speeds of a few rad/s in a descent from rest; there `v_s` is fitted (the
+  Stribeck velocity of the classical law), and the peak divides by its own width's value
+  (`stiction_peak`, towards 1 for a wide hump).
 * com_offset is a geometric change: the centre of mass sits rotated by `delta` about the
   coordinate's axis from where the model puts it.  With gravity stiffness k_g = m g d (supplied
   by the experiment) the gravity torque becomes -k_g sin(q - delta) instead of -k_g sin(q); the
@@ -70,6 +76,35 @@ def _hump_peak() -> float:
 STICTION_PEAK = _hump_peak()   # 0.5936: the stiction law's most torque per unit tau_s
 
 
+def _peak_table(n: int = 801):
+    """Peaks of exp(-x^2) tanh(r x) over x >= 0 for widths r = v_s / V_EPS from 2 to 1e5 (log
+    spaced): the root of its slope, r sech^2(r x) = 2 x tanh(r x), by bisection on [0, 4]."""
+    r = np.geomspace(V_STRIBECK / V_EPS, 1e5, n)
+    lo, hi = np.zeros(n), np.full(n, 4.0)
+    for _ in range(80):
+        mid = 0.5 * (lo + hi)
+        with np.errstate(over="ignore"):      # cosh overflows far past the peak: sech^2 = 0 there
+            rising = r / np.cosh(r * mid) ** 2 > 2.0 * mid * np.tanh(r * mid)
+        lo, hi = np.where(rising, mid, lo), np.where(rising, hi, mid)
+    x = 0.5 * (lo + hi)
+    return np.log(r), np.exp(-x * x) * np.tanh(r * x)
+
+
+_LOG_R, _PEAKS = _peak_table()
+
+
+def stiction_peak(v_s):
+    """The stiction hump's most torque per unit tau_s at width v_s (rad/s; a number or an array):
+    STICTION_PEAK at the creep band's width, rising towards 1 as the hump widens (tanh's corner
+    then sits at speeds where exp(-x^2) is still 1).  Interpolated in log width from
+    `_peak_table` (error below 2e-6); the creep band's value is the module constant itself, so
+    the joints' laws are unchanged to the last bit."""
+    v = np.asarray(v_s, dtype=float)
+    peak = np.interp(np.log(np.maximum(v, V_STRIBECK) / V_EPS), _LOG_R, _PEAKS)
+    peak = np.where(v == V_STRIBECK, STICTION_PEAK, peak)
+    return float(peak) if peak.ndim == 0 else peak
+
+
 # ---- the laws -------------------------------------------------------------------------------
 def viscous_damping(q, qd, c, m=NP):
     """Torque proportional to speed: -c qd (c in N m s/rad)."""
@@ -81,10 +116,10 @@ def coulomb_friction(q, qd, tau_c, m=NP):
     return -tau_c * m.tanh(qd / V_EPS)
 
 
-def stiction(q, qd, tau_s, m=NP):
-    """Breakaway torque above kinetic friction: up to tau_s (N m) more, only near rest."""
-    x = qd / V_STRIBECK
-    return -(tau_s / STICTION_PEAK) * m.exp(-x * x) * m.tanh(qd / V_EPS)
+def stiction(q, qd, tau_s, v_s=V_STRIBECK, m=NP):
+    """Breakaway torque above kinetic friction: up to tau_s (N m) more, fading over v_s (rad/s)."""
+    x = qd / v_s
+    return -(tau_s / stiction_peak(v_s)) * m.exp(-x * x) * m.tanh(qd / V_EPS)
 
 
 def quadratic_drag(q, qd, c2, m=NP):
@@ -140,6 +175,7 @@ class Param:
     typical: float
     grid: tuple = (0.02, 30.0, 28)
     signed: bool = False
+    default: float = 0.0     # its value where it is not fitted: 0 for a magnitude (no effect)
 
     def grid_values(self) -> list:
         a, b, n = self.grid
@@ -203,9 +239,14 @@ LIBRARY: dict[str, Effect] = {e.name: e for e in (
        "amplitude falls linearly; swings stop off rest",
        mechanism=((0, "dry (Coulomb) friction in the joint's bearings, seals or gearbox"),)),
     _e("stiction", stiction,
-       # typical size and bound of the peak (0.18 and 5.9 N m): the law's outputs of the former
-       # amplitude parametrisation (0.3 and 10), so the fits start from the same grid
-       [Param("tau_s", "N m", 0.0, 10.0 * STICTION_PEAK, 0.3 * STICTION_PEAK)],
+       # typical size of the peak (0.18 N m): the law's output of the former amplitude
+       # parametrisation (0.3), so the fits start from the same grid; bound 20 N m as rolling
+       # resistance's (a soft shell resting on its flat at low pressure breaks away at up to 10)
+       [Param("tau_s", "N m", 0.0, 20.0, 0.3 * STICTION_PEAK),
+        # the width over which the breakaway fades: held at the creep band on a joint
+        # (ReducedModel.held_params), fitted on a rolling shell, whose breakaway (rolling off the
+        # flat it rests on) lasts the first part of a radian of rolling, well into the motion
+        Param("v_s", "rad/s", V_STRIBECK, 10.0, 1.0, grid=(0.1, 5.0, 8), default=V_STRIBECK)],
        "swings stop earlier and further from rest than kinetic friction alone allows",
        mechanism=((0, "static friction above kinetic friction (breakaway) in the bearings or gearbox"),)),
     _e("quadratic_drag", quadratic_drag,
@@ -260,7 +301,11 @@ def torque(name: str, q, qd, params: dict, context: dict | None = None, m=NP):
     the experiment constants the effect needs (k_g for com_offset).  For an inertia effect this
     is the inertia it adds (kg m^2), not a torque: `total_torque` leaves those out."""
     eff = get(name)
-    kwargs = {p: params[p] for p in eff.param_names}
+    missing = [p.name for p in eff.params if p.name not in params and p.default == 0.0]
+    if missing:
+        raise ValueError(f"effect '{name}' lacks parameter(s) {', '.join(missing)}")
+    # a parameter with a default of its own (stiction's width) may be left out: the law's default
+    kwargs = {p: params[p] for p in eff.param_names if p in params}
     for key in eff.context:
         if context is None or key not in context:
             raise ValueError(f"effect '{name}' needs the experiment constant '{key}'")

@@ -65,6 +65,9 @@ class ReducedModel:
     search_rounds: int = 1
     ts_bound: float = 0.1      # s: how far the fitted release instant may move from the finder's
     context: dict = {}
+    # effect parameters the model holds at a value instead of fitting them ("effect.param" ->
+    # value): a joint's breakaway fades within the creep band (roboball.physics.effects, stiction)
+    held_params: dict = {"stiction.v_s": fx.V_STRIBECK}
     description: str = ""
 
     def hidden_starts(self) -> list:

@@ -101,7 +101,9 @@ class RampModel(ReducedModel):
         source = "fitted" if friction else "Table I"
         self.context = {"k_g": 0.0}
         self.base_params = ()
-        self.candidates = ("viscous_damping", "rolling_resistance", "quadratic_drag")
+        # stiction here is the shell's breakaway from the flat it rests on, its width fitted
+        self.candidates = ("viscous_damping", "rolling_resistance", "quadratic_drag", "stiction")
+        self.held_params = {}
         self.description = (f"planar ramp descent on {math.degrees(self.alpha):.3g} deg: shell rolling (or "
                             f"sliding beyond mu = {self.mu:g}) on rigid point contact + pendulum about the "
                             f"driveshaft, Majd friction ({source}) on both joints (the planar model holds the "
