@@ -5,8 +5,9 @@
 Figs. 13 and 14 score the diagnosed model of each ramp run with the effects of the pooled
 diagnosis of the *other* runs at its pressure (results/diagnose/heldout/<run>), at their fitted
 values.  This script reruns that Drake descent (roboball.pipeline.diagnosis.diagnosed_descent, the
-pipeline's own, on the ingested recording) with each diagnosed parameter at the low and the high end
-of its 95% interval, the others at their values, and prints each run's PME and mean |error|, then
+pipeline's own, on the ingested recording) with every diagnosed parameter at the low end of its
+95% interval, then every one at the high end (a bracket, not a joint interval: with a breakaway
+and a drag both ends of both lose less, or more), and prints each run's PME and mean |error|, then
 the mean PME per pressure at the fitted value and at the two ends.  It shows whether a difference
 in PME between models is larger than what the diagnosis itself leaves open.  Needs `make figures`
 first.  About 10 s.
