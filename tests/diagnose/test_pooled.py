@@ -241,6 +241,8 @@ def test_the_membrane_shell_is_named_as_a_breakaway_with_its_width_and_interval(
         assert 0 < st["ci95"][p][0] < st["parameters"][p] < st["ci95"][p][1]
     assert 5.0 < st["parameters"]["tau_s"] < 6.5 and 2.4 < st["parameters"]["v_s"] < 3.4
     assert "flat" in st["mechanism"] and "bearings" not in st["mechanism"]
+    # report.md names a two-parameter effect once: its width on a row of its own below it
+    assert "\n|  |  | v_s = " in (out / "report.md").read_text()
     details = json.loads((out / "details.json").read_text())
     assert d.immaterial == [] and details["immaterial"] == [] and immaterial(details["rounds"]) == []
     assert details["fit_noise"] < 0.4 * details["noise"]             # the trend's noise, not the sensor's

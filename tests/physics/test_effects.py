@@ -165,9 +165,10 @@ def test_stiction_adds_at_most_tau_s_at_any_width(v_s):
     """tau_s is the most the hump adds at every width: the law divides by its width's own peak
     (stiction_peak), found on a fine grid here."""
     qd = np.concatenate([np.geomspace(1e-7, 60.0, 2000001), -np.geomspace(1e-7, 60.0, 11)])
-    extra = np.abs(fx.stiction(0.0 * qd, qd, 0.37, v_s))
-    assert np.max(extra) == pytest.approx(0.37, rel=3e-6)
-    assert np.all(np.sign(fx.stiction(0.0 * qd, qd, 0.37, v_s)) == -np.sign(qd))
+    tau = fx.stiction(0.0 * qd, qd, 0.37, v_s)
+    assert np.max(np.abs(tau)) == pytest.approx(0.37, rel=1e-6)
+    acting = tau != 0.0                     # far past the width the hump underflows to zero
+    assert acting.sum() > qd.size // 4 and np.all(np.sign(tau[acting]) == -np.sign(qd[acting]))
 
 
 def test_stiction_at_the_creep_band_is_the_joints_law_to_the_last_bit():

@@ -190,3 +190,31 @@ def test_the_ramp_fits_the_shell_breakaways_width_and_a_joint_holds_it():
     held = Engine(stand, prepare(read(REPO / "raw_data" / "steer_stand" / "steer_stand_r1.csv")))
     assert held.defaults["stiction.v_s"] == fx.V_STRIBECK
     assert held.info["stiction.v_s"][1:] == (fx.V_STRIBECK, fx.V_STRIBECK)
+
+
+def test_a_fitted_breakaway_is_judged_against_the_constant_torque_it_becomes_unfaded():
+    """stiction whose width grows without bound is a constant dry torque (rolling resistance on
+    the ramp, whose law is the same tanh): where the model fits the width, the keep rule also
+    judges the breakaway against the model with that torque in its place (as backlash against
+    linear stiffness), starting from tau_rr = tau_s; where the width is held (a joint), not.
+    Seed 6's blind ramp-37 (a concealed rolling resistance + damping) was reported as damping +
+    a breakaway 5 rad/s wide until this reference was added."""
+    import numpy as np
+
+    from roboball.diagnose.data import prepare, read
+    from roboball.diagnose.fit import Problem
+    from roboball.diagnose.scored import Scored
+    from roboball.diagnose.select import Selector
+    from roboball.physics import effects as fx
+
+    assert fx.LIBRARY["stiction"].widens_to == (("v_s", ("rolling_resistance", "coulomb_friction")),)
+    values = {"viscous_damping.c": 1.2, "stiction.tau_s": 0.8, "stiction.v_s": 5.0}
+    sc = Scored(effects=("viscous_damping", "stiction"),
+                full=Problem(effects=("viscous_damping", "stiction"), values=values, free=[], masks={}))
+    ramp = Selector(prepare(read(REPO / "raw_data" / "ramp" / "ramp_13.8kpa_r1.csv")))
+    refs = {key: start for e, key, _, start in ramp.references(sc) if e == "stiction"}
+    assert set(refs) == {frozenset({"viscous_damping"}), frozenset({"viscous_damping", "rolling_resistance"})}
+    assert refs[frozenset({"viscous_damping", "rolling_resistance"})]["rolling_resistance.tau_rr"] == 0.8
+    stand = Selector(prepare(read(REPO / "raw_data" / "steer_stand" / "steer_stand_r1.csv")))
+    assert [key for e, key, _, _ in stand.references(sc) if e == "stiction"] == [frozenset({"viscous_damping"})]
+    assert np.isclose(fx.stiction(0.0, np.array(3.0), 0.8, 1e6), fx.rolling_resistance(0.0, np.array(3.0), 0.8))

@@ -113,14 +113,15 @@ def _located(located_base) -> list:
 
 def _missing(js: dict) -> list:
     """The effects added, one row per parameter, with intervals, delta BIC, signature and the
-    physical mechanism each stands for."""
+    physical mechanism each stands for (given once per effect, on its first parameter's row)."""
     lines = ["## Missing physics", ""]
     if js["missing_physics"]:
         rows = []
         for m in js["missing_physics"]:
-            for p, val in m["parameters"].items():
-                rows.append((m["effect"], m["dof"], *_param_cells(m["effect"], p, val, m["ci95"][p]),
-                             _fmt(m["delta_bic"], 5), m["explains"], m["mechanism"]))
+            for i, (p, val) in enumerate(m["parameters"].items()):
+                effect = (m["effect"], m["dof"]) if i == 0 else ("", "")
+                about = (_fmt(m["delta_bic"], 5), m["explains"], m["mechanism"]) if i == 0 else ("", "", "")
+                rows.append((*effect, *_param_cells(m["effect"], p, val, m["ci95"][p]), *about))
         lines += [_md_table(rows, ["effect", "dof", "parameter", "95% interval", "delta BIC", "signature",
                                    "what it stands for"]), "",
                   "delta BIC: how much the BIC rises when the effect is left out of the final model."]

@@ -343,9 +343,10 @@ class Selector(KeepRule, CrossValidation):
         """What each effect of `sc` is judged against, the newest effect first: [(effect, key,
         effects, starting values)] of the same model without the effect, and, for an effect that
         becomes a simpler vocabulary entry at a parameter's zero (backlash with no free play is
-        linear stiffness), of the model with the simpler entry in its place: its extra parameter
-        must earn its keep by the same rule (a search that grows both sets would otherwise
-        choose between them by BIC alone)."""
+        linear stiffness) or as a fitted parameter grows without bound (a breakaway that never
+        fades is a constant dry torque), of the model with the simpler entry in its place: its
+        extra parameter must earn its keep by the same rule (a search that grows both sets would
+        otherwise choose between them by BIC alone)."""
         out = []
         for e in reversed(sc.effects):
             rest = tuple(x for x in sc.effects if x != e)
@@ -354,6 +355,16 @@ class Selector(KeepRule, CrossValidation):
             eff = fx.LIBRARY[e]
             for _, simpler in eff.reduces_to:
                 if simpler in sc.effects:
+                    continue
+                plain = rest + (simpler,)
+                first = fx.LIBRARY[simpler].params[0].name
+                out.append((e, frozenset(plain), plain, {**v, f"{simpler}.{first}": sc.values[f"{e}.{eff.params[0].name}"]}))
+            for param, simplers in eff.widens_to:
+                # a breakaway whose width is fitted must beat the dry torque it becomes unfaded
+                if f"{e}.{param}" in self.model.held_params:
+                    continue
+                simpler = next((x for x in simplers if x in self.model.candidates), None)
+                if simpler is None or simpler in sc.effects:
                     continue
                 plain = rest + (simpler,)
                 first = fx.LIBRARY[simpler].params[0].name

@@ -76,7 +76,7 @@ def _hump_peak() -> float:
 STICTION_PEAK = _hump_peak()   # 0.5936: the stiction law's most torque per unit tau_s
 
 
-def _peak_table(n: int = 801):
+def _peak_table(n: int = 4001):
     """Peaks of exp(-x^2) tanh(r x) over x >= 0 for widths r = v_s / V_EPS from 2 to 1e5 (log
     spaced): the root of its slope, r sech^2(r x) = 2 x tanh(r x), by bisection on [0, 4]."""
     r = np.geomspace(V_STRIBECK / V_EPS, 1e5, n)
@@ -97,7 +97,7 @@ def stiction_peak(v_s):
     """The stiction hump's most torque per unit tau_s at width v_s (rad/s; a number or an array):
     STICTION_PEAK at the creep band's width, rising towards 1 as the hump widens (tanh's corner
     then sits at speeds where exp(-x^2) is still 1).  Interpolated in log width from
-    `_peak_table` (error below 2e-6); the creep band's value is the module constant itself, so
+    `_peak_table` (relative error below 1e-6); the creep band's value is the module constant itself, so
     the joints' laws are unchanged to the last bit."""
     v = np.asarray(v_s, dtype=float)
     peak = np.interp(np.log(np.maximum(v, V_STRIBECK) / V_EPS), _LOG_R, _PEAKS)
@@ -177,6 +177,11 @@ class Param:
     signed: bool = False
     default: float = 0.0     # its value where it is not fitted: 0 for a magnitude (no effect)
 
+    @property
+    def optional(self) -> bool:
+        """Whether a law may be called without it (a width that has a value of its own)."""
+        return self.default != 0.0
+
     def grid_values(self) -> list:
         a, b, n = self.grid
         pos = [self.typical * x for x in np.geomspace(a, b, int(n))]
@@ -198,6 +203,10 @@ class Effect:
     explains: str = ""
     description: str = ""
     reduces_to: tuple = ()      # ((param, simpler effect), ...): at param = 0 this effect IS that one
+    # ((param, simpler effects), ...): as param grows without bound this effect IS any of those
+    # (a breakaway that never fades is a constant dry torque); judged like reduces_to where the
+    # model fits that param
+    widens_to: tuple = ()
     mechanism: tuple = ()       # ((sign of the magnitude, what it stands for physically), ...)
 
     def defining_params(self) -> tuple:
@@ -223,10 +232,10 @@ class Effect:
         return ""
 
 
-def _e(name, law, params, explains, kind="force", context=(), reduces_to=(), mechanism=()):
+def _e(name, law, params, explains, kind="force", context=(), reduces_to=(), mechanism=(), widens_to=()):
     return Effect(name=name, law=law, params=tuple(params), kind=kind, context=tuple(context),
                   explains=explains, description=(law.__doc__ or "").split("\n")[0], reduces_to=tuple(reduces_to),
-                  mechanism=tuple(mechanism))
+                  mechanism=tuple(mechanism), widens_to=tuple(widens_to))
 
 
 LIBRARY: dict[str, Effect] = {e.name: e for e in (
@@ -248,6 +257,7 @@ LIBRARY: dict[str, Effect] = {e.name: e for e in (
         # flat it rests on) lasts the first part of a radian of rolling, well into the motion
         Param("v_s", "rad/s", V_STRIBECK, 10.0, 1.0, grid=(0.1, 5.0, 8), default=V_STRIBECK)],
        "swings stop earlier and further from rest than kinetic friction alone allows",
+       widens_to=(("v_s", ("rolling_resistance", "coulomb_friction")),),
        mechanism=((0, "static friction above kinetic friction (breakaway) in the bearings or gearbox"),)),
     _e("quadratic_drag", quadratic_drag,
        [Param("c2", "N m s^2/rad^2", 0.0, 20.0, 0.2)],
@@ -301,11 +311,10 @@ def torque(name: str, q, qd, params: dict, context: dict | None = None, m=NP):
     the experiment constants the effect needs (k_g for com_offset).  For an inertia effect this
     is the inertia it adds (kg m^2), not a torque: `total_torque` leaves those out."""
     eff = get(name)
-    missing = [p.name for p in eff.params if p.name not in params and p.default == 0.0]
+    missing = [p.name for p in eff.params if p.name not in params and not p.optional]
     if missing:
         raise ValueError(f"effect '{name}' lacks parameter(s) {', '.join(missing)}")
-    # a parameter with a default of its own (stiction's width) may be left out: the law's default
-    kwargs = {p: params[p] for p in eff.param_names if p in params}
+    kwargs = {p: params[p] for p in eff.param_names if p in params}     # else the law's default
     for key in eff.context:
         if context is None or key not in context:
             raise ValueError(f"effect '{name}' needs the experiment constant '{key}'")
