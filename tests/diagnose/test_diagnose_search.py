@@ -28,7 +28,7 @@ def selector(table: dict, candidates=("a", "b", "c", "d"), restarted: dict | Non
     sel = Selector.__new__(Selector)
     sel.s = Settings(**settings)
     sel.prep = SimpleNamespace(noise=NOISE, fit_noise=NOISE, windows=[])
-    sel.model = SimpleNamespace(candidates=tuple(candidates), search_rounds=1)
+    sel.model = SimpleNamespace(candidates=tuple(candidates), search_rounds=1, held_params={})
     sel.log = lambda msg: None
     sel.fits = {}
     sel.grown = []
@@ -98,7 +98,8 @@ def fx_params(monkeypatch):
     at a zero of its parameter (as backlash with no free play is linear stiffness)."""
     from roboball.physics import effects as fx
     fake = {name: SimpleNamespace(params=(SimpleNamespace(name="x"),), param_names=("x",),
-                                  reduces_to=((("x", "c"),) if name == "d" else ()), defining_params=lambda: ("x",))
+                                  reduces_to=((("x", "c"),) if name == "d" else ()), widens_to=(),
+                                  defining_params=lambda: ("x",))
             for name in "abcd"}
     monkeypatch.setattr(fx, "LIBRARY", {**fx.LIBRARY, **fake})
 

@@ -353,17 +353,10 @@ class Selector(KeepRule, CrossValidation):
             v = {k: x for k, x in sc.values.items() if not k.startswith(e + ".")}
             out.append((e, frozenset(rest), rest, v))
             eff = fx.LIBRARY[e]
-            for _, simpler in eff.reduces_to:
-                if simpler in sc.effects:
-                    continue
-                plain = rest + (simpler,)
-                first = fx.LIBRARY[simpler].params[0].name
-                out.append((e, frozenset(plain), plain, {**v, f"{simpler}.{first}": sc.values[f"{e}.{eff.params[0].name}"]}))
-            for param, simplers in eff.widens_to:
-                # a breakaway whose width is fitted must beat the dry torque it becomes unfaded
-                if f"{e}.{param}" in self.model.held_params:
-                    continue
-                simpler = next((x for x in simplers if x in self.model.candidates), None)
+            simplers = [x for _, x in eff.reduces_to] + [      # a fitted width's unfaded limit
+                next((x for x in options if x in self.model.candidates), None)
+                for param, options in eff.widens_to if f"{e}.{param}" not in self.model.held_params]
+            for simpler in simplers:
                 if simpler is None or simpler in sc.effects:
                     continue
                 plain = rest + (simpler,)

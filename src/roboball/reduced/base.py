@@ -103,8 +103,9 @@ class ReducedModel:
                 sl = slice(int(rows[0]), int(rows[-1]) + 1)
             elif rows.size and rows.size <= SPARSE_SHARE * first.size:
                 sl = rows
-            kw = {p: np.asarray(P[f"{name}.{p}"], dtype=float)[sl if sl is not None else slice(None)]
-                  for p in eff.param_names}
+            # a parameter with a value of its own (stiction's width) may be absent: the law's default
+            kw = {p.name: np.asarray(P[f"{name}.{p.name}"], dtype=float)[sl if sl is not None else slice(None)]
+                  for p in eff.params if f"{name}.{p.name}" in P or not p.optional}
             for key in eff.context:
                 kw[key] = self.context[key]
             kw["m"] = NP
