@@ -66,7 +66,7 @@ def missing_physics(d: Diagnosis) -> list:
         entry = {"effect": e, "dof": d.model.dof, "parameters": params, "ci95": ci,
                  "delta_bic": _round(d.drop_bic.get(e, d.final.delta_bic), 5),
                  "explains": RAMP_EXPLAINS.get(e, eff.explains) if d.prep.kind == "ramp" else eff.explains,
-                 "mechanism": (RAMP_MECHANISM.get(e) if d.prep.kind == "ramp" else None) or eff.mechanism_for(params)}
+                 "mechanism": _mechanism(e, params, d.prep.kind)}
         alts = d.alternatives.get(e)
         if alts:
             entry["alternatives"] = [_alternative(a, d.prep.kind) for a in alts]
@@ -74,14 +74,18 @@ def missing_physics(d: Diagnosis) -> list:
     return out
 
 
+def _mechanism(effect: str, params: dict, kind: str) -> str:
+    """The physical mechanism `effect` stands for at `params` in a recording of `kind`."""
+    return (RAMP_MECHANISM.get(effect) if kind == "ramp" else None) or fx.LIBRARY[effect].mechanism_for(params)
+
+
 def _alternative(a: dict, kind: str) -> dict:
     """An equivalent explanation as diagnosis.json gives it."""
-    eff = fx.LIBRARY[a["effect"]]
     params = {p: _round(v) for p, v in a["parameters"].items()}
     return {"effect": a["effect"], "parameters": params,
             "ci95": {p: [_round(lo), _round(hi)] for p, (lo, hi) in a["ci95"].items()},
             "rmse_heldout": _round(a["rmse_heldout"]), "delta_bic": _round(a["delta_bic"], 5),
-            "mechanism": (RAMP_MECHANISM.get(a["effect"]) if kind == "ramp" else None) or eff.mechanism_for(params)}
+            "mechanism": _mechanism(a["effect"], params, kind)}
 
 
 def diagnosis_json(d: Diagnosis, located_base, drake_before=None, drake_after=None) -> dict:

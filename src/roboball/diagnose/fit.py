@@ -161,7 +161,8 @@ class Engine:
     def _simulate(self, items, dt: float):
         """(y, ydot) at each item's window samples from one batched simulation of `items`."""
         B = len(items)
-        P = {k: np.fromiter((v.get(k, self.defaults.get(k, 0.0)) for v, _ in items), float, B) for k in self.p_keys}
+        P = {k: np.fromiter((v.get(k, d) for v, _ in items), float, B)
+             for k, d in ((k, self.defaults.get(k, 0.0)) for k in self.p_keys)}
         q0 = np.fromiter((v.get(f"q0@{w}", self.windows[w].q0) for v, w in items), float, B)
         ts = np.fromiter((v.get(f"ts@{w}", 0.0) for v, w in items), float, B)
         for h in self.hidden:
