@@ -1,0 +1,111 @@
+"""How fast can Drake's hydroelastic sphere rock? The ceiling behind acceptance 2 of issue 25.
+
+    .venv/bin/python benchmarks/hydro_frequency_ceiling.py [--pressure-kpa 6.9] [--hints 0.1 0.05]
+                                                          [--moduli 1e4 9.5e3 9e3 8.75e3 8.5e3 8e3]
+
+Drake's hydroelastic sphere has no roll stiffness of its own (its pressure field is centred on
+the sphere's centre, so the contact force passes through it); it rocks faster than eq. 5 only by
+sinking, which shortens the lever from the contact to the centre. The calibration
+(`roboball.identify.shell.hydro`) stops at its grid's softest modulus (configs/config.yaml,
+shell.hydro_fit). This script goes below that floor, to where the shell sinks past half its radius
+and the run stops (roboball.sim.scenarios.MAX_SINK_FRACTION), at the pipeline's mesh hint (0.1 m,
+the authors') and finer ones, from the recorded releases at one pressure, with the dissipation the
+calibration fitted there (omega_n hardly depends on it). It prints zeta and omega_n (means over the
+releases, extracted by the recordings' own code), the depth the robot rests at, and the fastest
+omega_n found against every pressure's recorded omega_n and its 10% band.
+
+Needs `make figures` first (results/ingest, results/identify/hydro_tuned.csv). About 2-3 min.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "src"))
+
+from roboball.config import load_robot  # noqa: E402
+from roboball.errors import SimulationError  # noqa: E402
+from roboball.pipeline.hydro import _spec  # noqa: E402
+from roboball.pipeline.simulation import drake_decay  # noqa: E402
+
+
+def _releases(pressure_kpa: float) -> list[float]:
+    out = []
+    for path in sorted((ROOT / "results/ingest").glob(f"shell_rock_{pressure_kpa:g}kpa_r*.releases.json")):
+        out += [float(r["y_release"]) for r in json.loads(path.read_text())["releases"]]
+    if not out:
+        sys.exit(f"hydro_frequency_ceiling: no releases at {pressure_kpa:g} kPa in results/ingest (run make figures)")
+    return out
+
+
+def _rest_depth_mm(modulus: float, dissipation: float, hint: float) -> float:
+    """The depth (mm) the robot held still on the ground rests at in its contact (nan when the
+    contact does not hold it within the sinking limit)."""
+    from roboball.sim.plant import build
+    from roboball.sim.scenarios import set_release
+
+    spec = _spec(modulus, dissipation, 1e-3)
+    spec.resolution_hint = hint
+    built = build(spec)
+    context = built.diagram.CreateDefaultContext()
+    settled: dict = {}
+    set_release(built, context, 0.0, settled=settled)   # upright: the run's own settling presses it in
+    sink = float(next(iter(settled.values())))
+    return 1e3 * sink if sink > 0.0 else float("nan")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--pressure-kpa", type=float, default=6.9)
+    ap.add_argument("--hints", type=float, nargs="+", default=[0.1, 0.05], metavar="M")
+    ap.add_argument("--moduli", type=float, nargs="+", default=[1e4, 9.5e3, 9e3, 8.75e3, 8.5e3, 8e3], metavar="PA")
+    args = ap.parse_args()
+    table = pd.read_csv(ROOT / "results/identify/hydro_tuned.csv")
+    row = table[np.isclose(table.pressure_kpa, args.pressure_kpa)]
+    if row.empty:
+        sys.exit(f"hydro_frequency_ceiling: {args.pressure_kpa:g} kPa is not a calibrated pressure")
+    dissipation = float(row.hydro_dissipation_s_m.iloc[0])
+    angles = _releases(args.pressure_kpa)
+    guess = load_robot().omega_n_eq5
+    print(f"releases at {args.pressure_kpa:g} kPa: {', '.join(f'{a:+.3f}' for a in angles)} rad; "
+          f"dissipation {dissipation:.3g} s/m (the calibration's fit there)")
+    print("| mesh hint (m) | modulus (Pa) | rests (mm deep) | zeta | omega_n (rad/s) | wall (s) |")
+    print("|---|---|---|---|---|---|")
+    best = {}
+    for hint in args.hints:
+        for modulus in sorted(args.moduli, reverse=True):
+            t0 = time.perf_counter()
+            spec = _spec(modulus, dissipation, 1e-3, args.pressure_kpa)
+            spec.resolution_hint = hint
+            try:
+                depth = _rest_depth_mm(modulus, dissipation, hint)
+                runs = [drake_decay(spec, a, 9.0, guess) for a in angles]
+            except SimulationError as exc:
+                print(f"| {hint:g} | {modulus:.4g} | - | sinks: {str(exc).split('(')[0].strip()} | - | "
+                      f"{time.perf_counter() - t0:.1f} |")
+                break           # softer ones sink too
+            z = float(np.mean([r["zeta"] for r in runs]))
+            w = float(np.mean([r["omega_n_rad_s"] for r in runs]))
+            print(f"| {hint:g} | {modulus:.4g} | {depth:.0f} | {z:.3f} | {w:.3f} | {time.perf_counter() - t0:.1f} |")
+            if np.isfinite(w) and w > best.get("omega", 0.0):
+                best = {"omega": w, "modulus": modulus, "hint": hint, "depth": depth}
+    if not best:
+        sys.exit("hydro_frequency_ceiling: no run gave a decay")
+    print(f"\nfastest: omega_n {best['omega']:.3f} rad/s at {best['modulus']:.4g} Pa (mesh hint {best['hint']:g} m, "
+          f"rests {best['depth']:.0f} mm deep of a {1e3 * load_robot().radius:.0f} mm radius)")
+    print("| p (kPa) | omega_n recorded (rad/s) | 10% band from | fastest against recorded |")
+    print("|---|---|---|---|")
+    for _, r in table.iterrows():
+        rec = float(r.omega_n_recorded_rad_s)
+        print(f"| {r.pressure_kpa:g} | {rec:.3f} | {0.9 * rec:.3f} | {100 * (best['omega'] / rec - 1):+.1f}% |")
+
+
+if __name__ == "__main__":
+    main()
