@@ -22,7 +22,6 @@ code, as the pipeline's Fig. 10/11 runs are. Needs `make figures` first. About 5
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
@@ -33,6 +32,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "src"))
 
 from roboball.config import load_robot  # noqa: E402
+from roboball.pipeline.hydro import release_angles  # noqa: E402
 from roboball.pipeline.simulation import drake_decay  # noqa: E402
 from roboball.sim.spec import ShellParams, SimSpec  # noqa: E402
 
@@ -40,12 +40,11 @@ CASES = {"control": (1.0, 1.0), "dissipation x0.5": (1.0, 0.5), "modulus x1.5": 
 
 
 def _releases(pressure_kpa: float) -> list[float]:
-    out = []
-    for path in sorted((ROOT / "results/ingest").glob(f"shell_rock_{pressure_kpa:g}kpa_r*.releases.json")):
-        out += [float(r["y_release"]) for r in json.loads(path.read_text())["releases"]]
-    if not out:
+    """The recorded release angles at one pressure, read as the calibration reads them."""
+    paths = sorted((ROOT / "results/ingest").glob(f"shell_rock_{pressure_kpa:g}kpa_r*.releases.json"))
+    if not paths:
         sys.exit(f"eq10_modulus_statements: no releases at {pressure_kpa:g} kPa in results/ingest (run make figures)")
-    return out
+    return release_angles(paths)
 
 
 def _zeta(pressure_kpa: float, zeta_in: float, omega_in: float, modulus: float | None,

@@ -19,7 +19,6 @@ Needs `make figures` first (results/ingest, results/identify/hydro_tuned.csv). A
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
@@ -32,23 +31,23 @@ sys.path.insert(0, str(ROOT / "src"))
 
 from roboball.config import load_robot  # noqa: E402
 from roboball.errors import SimulationError  # noqa: E402
+from roboball.pipeline.hydro import release_angles, release_spec  # noqa: E402
 from roboball.pipeline.simulation import drake_decay  # noqa: E402
-from roboball.sim.spec import ShellParams, SimSpec  # noqa: E402
 
 
 def _releases(pressure_kpa: float) -> list[float]:
-    out = []
-    for path in sorted((ROOT / "results/ingest").glob(f"shell_rock_{pressure_kpa:g}kpa_r*.releases.json")):
-        out += [float(r["y_release"]) for r in json.loads(path.read_text())["releases"]]
-    if not out:
+    """The recorded release angles at one pressure, read as the calibration reads them."""
+    paths = sorted((ROOT / "results/ingest").glob(f"shell_rock_{pressure_kpa:g}kpa_r*.releases.json"))
+    if not paths:
         sys.exit(f"hydro_frequency_ceiling: no releases at {pressure_kpa:g} kPa in results/ingest (run make figures)")
-    return out
+    return release_angles(paths)
 
 
-def _spec(modulus: float, dissipation: float, hint: float, pressure_kpa: float | None = None) -> SimSpec:
-    """The calibration's locked-steer shell release (roboball.pipeline.hydro) at one mesh hint."""
-    return SimSpec(kind="shell_rock", contact="hydroelastic", pressure_kpa=pressure_kpa, dt=1e-3,
-                   shell=ShellParams(hydro_modulus=modulus, hydro_dissipation=dissipation), resolution_hint=hint)
+def _spec(modulus: float, dissipation: float, hint: float, pressure_kpa: float | None = None):
+    """The calibration's Drake release (roboball.pipeline.hydro.release_spec) at mesh hint `hint` (m)."""
+    spec = release_spec(modulus, dissipation, 1e-3, pressure_kpa)
+    spec.resolution_hint = hint
+    return spec
 
 
 def _rest_depth_mm(modulus: float, dissipation: float, hint: float) -> float:

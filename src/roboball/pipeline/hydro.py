@@ -16,7 +16,8 @@ from roboball.errors import RoboballError
 STAGES = ("hydro_grid", "hydro_fit", "hydro_summary")
 
 
-def _release_angles(releases: list) -> list[float]:
+def release_angles(releases: list) -> list[float]:
+    """The release angles (rad) in the release files `releases` (sorted by path)."""
     out = []
     for path in sorted(releases):
         with open(path, encoding="utf-8") as fh:
@@ -30,11 +31,12 @@ def reference_release(releases: list) -> float:
     """The grid's release angle (rad): the recorded release of median size, over all pressures
     (Drake's zeta and omega_n move by 1-3% between the recorded sizes; the fit at each pressure
     then runs Drake from that pressure's own releases)."""
-    angles = _release_angles(releases)
+    angles = release_angles(releases)
     return sorted(angles, key=abs)[len(angles) // 2]
 
 
-def _spec(modulus: float, dissipation: float, dt: float, pressure_kpa: float | None = None):
+def release_spec(modulus: float, dissipation: float, dt: float, pressure_kpa: float | None = None):
+    """The calibration's Drake run: the locked-steer hydroelastic shell at (modulus, dissipation)."""
     from roboball.sim.spec import ShellParams, SimSpec
 
     return SimSpec(kind="shell_rock", contact="hydroelastic", pressure_kpa=pressure_kpa, dt=dt,
@@ -67,7 +69,7 @@ def hydro_grid(releases: list, out_csv: str, modulus_pa: float, dissipation_min_
             print(f"hydro-grid: modulus {modulus_pa:.4g} Pa, dissipation {d:.4g} s/m: not run (overdamped below it)")
         else:
             try:
-                row = drake_decay(_spec(modulus_pa, float(d), dt), y0, duration, guess)
+                row = drake_decay(release_spec(modulus_pa, float(d), dt), y0, duration, guess)
             except SimulationError as exc:  # too soft to hold the robot: a hole in the grid, said in the log
                 print(f"hydro-grid: modulus {modulus_pa:.4g} Pa, dissipation {d:.4g} s/m: {exc}")
             overdamped = bool(row["zeta"] >= ZETA_MAX)
@@ -85,7 +87,7 @@ def drake_evaluator(angles: list[float], pressure_kpa: float, duration: float, d
     guess = _omega_guess()
 
     def evaluate(modulus: float, dissipation: float) -> tuple[float, float]:
-        spec = _spec(float(modulus), float(dissipation), dt, pressure_kpa)
+        spec = release_spec(float(modulus), float(dissipation), dt, pressure_kpa)
         try:
             rows = [drake_decay(spec, y, duration, guess) for y in angles]
         except SimulationError as exc:          # too soft: the shell sank; the fit steps back
@@ -116,7 +118,7 @@ def hydro_fit(grid_csvs: list, decay_csvs: list, releases: list, pressure_kpa: f
     pts = pts[np.isclose(pts.pressure_kpa, pressure_kpa)]
     target = hy.Target.of(pts)
     sur = hy.Surrogate.fit(grid)
-    evaluate = drake_evaluator(_release_angles(releases), pressure_kpa, duration, dt)
+    evaluate = drake_evaluator(release_angles(releases), pressure_kpa, duration, dt)
     cal = hy.calibrate(sur, target, evaluate, tol=tol, max_evals=max_evals)
     iv = hy.intervals(sur, target, cal, draws=draws, seed=seed)
     write_csv_atomic(pd.DataFrame([hy.calibration_row(pressure_kpa, sur, target, cal, iv)]), out_csv)
