@@ -29,9 +29,26 @@ $(STAMP): pyproject.toml requirements.lock
 # --rerun-incomplete redoes the jobs that were cut short, so rerunning `make figures` just works.
 # The greedy scheduler: Snakemake's default (an ILP solved before every batch of jobs) costs
 # about 0.2 s of a core per job on this DAG and buys nothing with 2 cores (docs/performance.md).
+# Your own recordings: make figures RAW=DIR [OUT=DIR2] [NAME="my robot"] runs the same DAG on the
+# campaign in DIR (its MANIFEST.csv: roboball manifest DIR) and writes results/ and figures/ under
+# DIR2 (default runs/<DIR's name>/), leaving paper_figures/ alone.
 SNAKEMAKE_TARGETS ?=
+RAW  ?=
+OUT  ?=
+NAME ?=
+SMK_FLAGS := --cores $(CORES) --scheduler greedy --rerun-incomplete --rerun-triggers mtime input params code
+RUN_DIR := $(abspath $(if $(OUT),$(OUT),runs/$(notdir $(abspath $(RAW)))))
 figures: $(STAMP)
-	$(BIN)/python -m roboball.pipeline.runlock $(BIN)/snakemake $(SNAKEMAKE_TARGETS) --cores $(CORES) --scheduler greedy --rerun-incomplete --rerun-triggers mtime input params code
+ifeq ($(strip $(RAW)),)
+	$(BIN)/python -m roboball.pipeline.runlock $(BIN)/snakemake $(SNAKEMAKE_TARGETS) $(SMK_FLAGS)
+else
+	@test -d "$(RAW)" || { echo "error: RAW=$(RAW): not a folder of recordings"; exit 2; }
+	mkdir -p "$(RUN_DIR)"
+	cd "$(RUN_DIR)" && $(abspath $(BIN))/python -m roboball.pipeline.runlock $(abspath $(BIN))/snakemake \
+	  -s $(CURDIR)/Snakefile $(SNAKEMAKE_TARGETS) $(SMK_FLAGS) \
+	  --config campaign_dir="$(abspath $(RAW))" figures_dir=figures $(if $(NAME),campaign_name="$(NAME)")
+	@echo "results and figures of $(RAW): $(RUN_DIR)/figures, $(RUN_DIR)/results"
+endif
 
 # The everyday suite (about 5 minutes on 2 cores); the slow tests (whole campaign regeneration,
 # kill-and-resume, the browser, the real logs' diagnoses and friction chains) run in CI after it

@@ -5,7 +5,10 @@
 # is defined; the rule files follow in pipeline order, and `rule all` asks common.smk for the
 # targets, so no rule file depends on another's definitions.
 
-configfile: "configs/config.yaml"
+import os
+
+# beside this Snakefile, wherever the run's outputs go (make figures OUT=DIR runs Snakemake in DIR)
+configfile: os.path.join(workflow.basedir, "configs", "config.yaml")
 
 
 include: "workflow/rules/common.smk"

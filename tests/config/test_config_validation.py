@@ -249,6 +249,10 @@ def manifest_dir(tmp_path: Path, lines: list[str]) -> Path:
     (raw / "steer_stand" / "a.csv").write_text("time_s,steer_angle_rad\n0.0,0.0\n0.01,0.0\n")
     (raw / "other").mkdir()
     (raw / "other" / "a.csv").write_text("time_s,steer_angle_rad\n0.0,0.0\n0.01,0.0\n")
+    # an authors' shell log (no pressure in it) and a log whose header no importer knows
+    (raw / "other" / "dynamic.csv").write_text("timestamp,ball_roll.position,ball_roll.velocity\n0,0.1,0.0\n"
+                                               "10000000,0.1,0.0\n")
+    (raw / "other" / "odd.csv").write_text("stamp,angle\n0,0.1\n0.01,0.1\n")
     (raw / "MANIFEST.csv").write_text("\n".join(lines) + "\n")
     return raw
 
@@ -261,6 +265,16 @@ BAD_MANIFESTS = {  # case -> (lines, words of the error)
     "same_stem": (["file,kind,pressure_kpa", "steer_stand/a.csv,steer_stand,", "other/a.csv,steer_stand,"],
                   "line 3: other/a.csv: same name as line 2"),
     "missing_column": (["path,kind", "steer_stand/a.csv,steer_stand"], "line 1 (header): missing column file"),
+    "shell_without_pressure": (["file,kind,pressure_kpa", "other/dynamic.csv,shell_rock,"],
+                               "line 2: other/dynamic.csv: a shell_rock recording needs its shell pressure: give column "
+                               "pressure_kpa (or 'unknown' if it was not logged)"),
+    "ramp_pressure_unknown": (["file,kind,pressure_kpa", "steer_stand/a.csv,ramp,unknown"],
+                              "line 2: steer_stand/a.csv: a ramp run's pressure cannot be unknown"),
+    "header_not_recognised": (["file,kind,pressure_kpa", "other/odd.csv,steer_stand,"],
+                              "line 2: other/odd.csv: line 1 (header): not a recording (first column time_s) nor a "
+                              "known native log (columns: stamp, angle)"),
+    "bad_steer_joint": (["file,kind,pressure_kpa,steer_joint", "other/dynamic.csv,shell_rock,6.9,clamped"],
+                        "line 2: column steer_joint: 'clamped'"),
     "empty": (["file,kind,pressure_kpa"], "no recordings listed"),
 }
 

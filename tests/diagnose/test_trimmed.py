@@ -106,17 +106,15 @@ def test_diagnosing_a_steer_coupled_log_without_its_friction_fit_is_a_one_line_e
     assert code != 0 and len(err.splitlines()) == 1 and "none.csv: shell regression table" in err, err
 
 
-def test_the_workflow_manifest_refuses_steer_coupled_in_one_line(tmp_path):
-    from roboball.errors import ConfigError
+def test_the_workflow_manifest_takes_steer_coupled_with_or_without_a_pressure(tmp_path):
     from roboball.ingest.manifest import read_manifest
     raw = tmp_path / "raw"
     raw.mkdir()
     (raw / "c.csv").write_text("time_s,pipe_angle_rad,steer_angle_rad\n0,-0.3,0.3\n0.02,-0.29,0.3\n")
-    (raw / "MANIFEST.csv").write_text("file,kind,pressure_kpa\nc.csv,steer_coupled,\n")
-    with pytest.raises(ConfigError) as info:
-        read_manifest(raw)
-    assert str(info.value) == (f"{raw / 'MANIFEST.csv'}: line 2: c.csv: kind steer_coupled is not supported in the "
-                               "pipeline yet; remove the line")
+    (raw / "d.csv").write_text("time_s,pipe_angle_rad,steer_angle_rad\n0,-0.3,0.3\n0.02,-0.29,0.3\n")
+    (raw / "MANIFEST.csv").write_text("file,kind,pressure_kpa\nc.csv,steer_coupled,\nd.csv,steer_coupled,unknown\n")
+    m = read_manifest(raw)
+    assert (m["c"]["kind"], m["c"]["pressure_kpa"], m["d"]["pressure_kpa"]) == ("steer_coupled", "", "unknown")
 
 
 def test_steer_coupled_is_a_recorded_kind_with_two_signals():

@@ -32,7 +32,8 @@ def _copy_repo(dst: Path) -> Path:
             shutil.copy2(src, dst / name)
     real = REAL_DATA.resolve()
     cfg = (dst / "configs" / "config.yaml").read_text()
-    cfg = cfg.replace("path: ../shared/data/roboball_real", f"path: {real}")
+    assert "raw: ../shared/data/roboball_real" in cfg
+    cfg = cfg.replace("raw: ../shared/data/roboball_real", f"raw: {real}")
     (dst / "configs" / "config.yaml").write_text(cfg)
     return dst
 

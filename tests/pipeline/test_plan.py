@@ -1,5 +1,6 @@
-"""The campaign plan the workflow expands (roboball.pipeline.plan): recordings, real logs, the
-ramp runs by pressure whose pooled diagnoses score each other, the sweep cases, the schedule."""
+"""The campaign plan the workflow expands (roboball.pipeline.plan): the campaigns and their
+recordings, what the run makes and what it skips with the reason, the ramp runs by pressure
+whose pooled diagnoses score each other, the sweep cases, the schedule."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -7,36 +8,38 @@ from pathlib import Path
 import pytest
 
 from roboball.errors import ConfigError
-from roboball.pipeline.plan import Campaign, friction_models, schedule_args, sweep_cases
+from roboball.pipeline.plan import Campaign, campaign_id, friction_models, schedule_args, sweep_cases
 
 from conftest import REPO
 ROW = "time_s,drive_rate_rad_s\n0.0,0.0\n0.01,0.0\n"
+FRICTION = {"steer_laws": ["viscous", "majd"], "drive_laws": ["majd"]}
 
 
-def campaign_dir(tmp_path: Path, lines: list[str], real: bool = True) -> dict:
-    """A raw-data folder with the listed recordings (file,kind,pressure_kpa) and, with `real`,
-    a folder of real logs; returns the workflow config that points at them."""
-    raw = tmp_path / "raw"
-    raw.mkdir(parents=True)
-    rows = ["file,kind,pressure_kpa"]
-    for name, kind, p in lines:
-        (raw / name).write_text(ROW)
-        rows.append(f"{name},{kind},{p}")
-    (raw / "MANIFEST.csv").write_text("\n".join(rows) + "\n")
-    real_dir = tmp_path / "real"
-    if real:
-        real_dir.mkdir()
-    return {"raw_data": str(raw),
-            "real_data": {"enabled": "auto", "path": str(real_dir), "steer_stand": "s.csv", "shell_rock": "d.csv"}}
+def folder(path: Path, lines: list, header: str = "file,kind,pressure_kpa") -> Path:
+    """A campaign folder with the listed recordings (name, kind, pressure) and its manifest."""
+    path.mkdir(parents=True)
+    rows = [header]
+    for name, kind, p, *rest in lines:
+        (path / name).write_text(ROW)
+        rows.append(",".join([name, kind, p, *rest]))
+    (path / "MANIFEST.csv").write_text("\n".join(rows) + "\n")
+    return path
+
+
+def config(*campaigns) -> dict:
+    return {"campaigns": [{"id": cid, "name": name, "raw": str(raw), **extra} for cid, name, raw, extra in campaigns]}
 
 
 RAMPS = [("ramp_10.3kpa_r1.csv", "ramp", "10.3"), ("ramp_10.3kpa_r2.csv", "ramp", "10.30"),
          ("ramp_10.3kpa_r3.csv", "ramp", "10.3"), ("ramp_20.7kpa_r1.csv", "ramp", "20.7"),
          ("shell_rock_6.9kpa_r1.csv", "shell_rock", "6.9")]
+REAL = [("s.csv", "steer_stand", "", "", "real_steer_stand"), ("d.csv", "shell_rock", "unknown", "unknown", ""),
+        ("c1.csv", "steer_coupled", "", "", ""), ("c2.csv", "steer_coupled", "", "", "")]
+REAL_HEADER = "file,kind,pressure_kpa,steer_joint,name"
 
 
 def test_ramp_runs_group_by_pressure_and_each_is_scored_by_the_others(tmp_path):
-    camp = Campaign.from_config(campaign_dir(tmp_path, RAMPS))
+    camp = Campaign.from_config(config(("testbed", "virtual test bed", folder(tmp_path / "raw", RAMPS), {})))
     assert camp.stems("ramp") == ["ramp_10.3kpa_r1", "ramp_10.3kpa_r2", "ramp_10.3kpa_r3", "ramp_20.7kpa_r1"]
     # '10.30' and '10.3' are one pressure
     assert camp.ramp_groups() == ["ramp_10.3kpa", "ramp_20.7kpa"]
@@ -47,29 +50,59 @@ def test_ramp_runs_group_by_pressure_and_each_is_scored_by_the_others(tmp_path):
     assert camp.other_runs("ramp_20.7kpa_r1") == ["ramp_20.7kpa_r1"]
 
 
-def test_real_logs_join_when_their_folder_exists_and_stay_apart(tmp_path):
-    camp = Campaign.from_config(campaign_dir(tmp_path, RAMPS))
-    assert camp.real_on and not camp.notes
-    assert camp.stems("steer_stand", real=True) == ["real_steer_stand"]
-    assert camp.recordings["real_shell_rock"]["src"] == str(tmp_path / "real" / "d.csv")
-    assert camp.stems("shell_rock") == ["shell_rock_6.9kpa_r1"]          # the campaign's only
+def test_a_second_campaign_is_a_dataset_of_its_own_and_optional_ones_may_be_missing(tmp_path):
+    raw = folder(tmp_path / "raw", RAMPS)
+    real = folder(tmp_path / "real", REAL, REAL_HEADER)
+    camp = Campaign.from_config(config(("testbed", "virtual test bed", raw, {}),
+                                       ("real", "real robot", real, {"optional": True})))
+    assert not camp.notes and list(camp.datasets) == ["testbed", "real"]
+    assert camp.stems("steer_stand", "real") == ["real_steer_stand"]          # named by the manifest
+    assert camp.recordings["d"]["steer_joint"] == "unknown" and camp.pressure("d") is None
+    assert camp.stems("shell_rock", "testbed") == ["shell_rock_6.9kpa_r1"]
+    assert camp.coupled_dataset() == "real" and camp.fits(FRICTION) == [("real", "steer", "viscous"),
+                                                                          ("real", "steer", "majd")]
+    off = Campaign.from_config(config(("testbed", "t", raw, {}), ("real", "r", tmp_path / "none", {"optional": True})))
+    assert list(off.datasets) == ["testbed"] and "folder" in off.notes[0] and "not found" in off.notes[0]
 
-    off = Campaign.from_config(campaign_dir(tmp_path / "b", RAMPS, real=False))
-    assert not off.real_on and "real_steer_stand" not in off.recordings
-    assert "real logs not found" in off.notes[0]
 
-
-def test_real_logs_required_but_missing_or_shadowed_are_refused_in_one_line(tmp_path):
-    cfg = campaign_dir(tmp_path, RAMPS, real=False)
-    cfg["real_data"]["enabled"] = True
-    with pytest.raises(ConfigError, match="real_data.path .*: folder not found"):
-        Campaign.from_config(cfg)
-
-    cfg = campaign_dir(tmp_path / "b", RAMPS + [("real_steer_stand.csv", "steer_stand", "")])
+def test_missing_campaigns_and_names_used_twice_are_refused_in_one_line(tmp_path):
+    raw = folder(tmp_path / "raw", RAMPS)
+    with pytest.raises(ConfigError, match=r"campaign 'real robot': folder .*none not found"):
+        Campaign.from_config(config(("testbed", "t", raw, {}), ("real", "real robot", tmp_path / "none", {})))
+    other = folder(tmp_path / "other", [("ramp_10.3kpa_r1.csv", "ramp", "10.3")])
     with pytest.raises(ConfigError) as info:
-        Campaign.from_config(cfg)
-    assert "recording real_steer_stand: the name of a real log" in str(info.value)
-    assert "\n" not in str(info.value)
+        Campaign.from_config(config(("testbed", "t", raw, {}), ("b", "b", other, {})))
+    msg = str(info.value)
+    assert f"{other / 'MANIFEST.csv'}: line 2: ramp_10.3kpa_r1: same name as {raw / 'MANIFEST.csv'}: line 2" in msg
+    assert "\n" not in msg
+
+
+def test_a_users_campaign_is_named_by_the_command_line_its_manifest_or_its_folder(tmp_path):
+    raw = folder(tmp_path / "My Robot", REAL, REAL_HEADER)
+    camp = Campaign.from_config({"campaign_dir": str(raw)})
+    assert camp.datasets == {"my_robot": {"name": "My Robot", "diagnose_recordings": True}}
+    assert Campaign.from_config({"campaign_dir": str(raw), "campaign_name": "Lab 2"}).datasets.keys() == {"lab_2"}
+    named = folder(tmp_path / "x", [("s.csv", "steer_stand", "", "bench A")], "file,kind,pressure_kpa,campaign")
+    assert Campaign.from_config({"campaign_dir": str(named)}).name("bench_a") == "bench A"
+    assert campaign_id("Roboball, real (2025)") == "roboball_real_2025"
+
+
+def test_the_plan_says_what_it_skips_and_why(tmp_path):
+    lines = [("steer_stand_r1.csv", "steer_stand", ""), ("shell_a.csv", "shell_rock", "13.8"),
+             ("shell_b.csv", "shell_rock", "13.8"), ("ramp_r1.csv", "ramp", "13.8")]
+    camp = Campaign.from_config({"campaign_dir": str(folder(tmp_path / "lab", lines))})
+    plan = camp.plan_lines(FRICTION)
+    assert "make  Fig. 7 and Table I rows: steer friction of 'lab'" in plan
+    assert "skip  Fig. 8 and Table I rows: drive friction of 'lab': no drive_stand recording in 'lab'" in plan
+    assert any(p.startswith("skip  zeta(p), omega_n(p) regression") and p.endswith(
+        "shell releases at one pressure only (13.8 kPa): decay table and diagnosis made, no regression") for p in plan)
+    assert any("ramp descents" in p and "point contact and the diagnosed model only" in p for p in plan)
+    assert "note  ramp runs: no drive_stand Majd fit in 'lab': its drive friction is Table I's (configs/robot.yaml), " \
+           "without posterior draws" in plan
+    assert "skip  Fig. S2 (coupled steer test): fewer than two steer_coupled recordings in one campaign" in plan
+    assert camp.ramp_friction(FRICTION) == {"steer": "results/friction/lab/steer_majd.json"}
+    assert not camp.has_regression() and camp.diagnosed_stems() == ["steer_stand_r1", "shell_a", "shell_b"]
+    assert all(p.startswith(("make  ", "skip  ", "note  ", "campaign ")) for p in plan)
 
 
 def test_sweep_cases_scale_modulus_dissipation_and_both():
@@ -87,12 +120,17 @@ def test_friction_models_and_schedule_arguments():
     assert schedule_args({}) == schedule_args(None) == "--schedule-time-s 0.0 3.0 --schedule-pressure-kpa 20.7 6.9"
 
 
-def test_the_repository_campaign():
+def test_the_repository_campaigns():
     import yaml
 
     config = yaml.safe_load((REPO / "configs" / "config.yaml").read_text())
-    config["raw_data"] = str(REPO / "raw_data")
-    camp = Campaign.from_config(config)
-    assert len(camp.stems("ramp")) == 15 and len(camp.ramp_groups()) == 5
+    camp = Campaign.from_config(config, base=str(REPO))
+    assert len(camp.stems("ramp")) == 15 and len(camp.ramp_groups()) == 5 and camp.has_regression()
     assert all(len(camp.other_runs(s)) == 2 for s in camp.stems("ramp"))
     assert len(sweep_cases(config["shell"]["sweep_factors"])) == 6
+    assert camp.ramp_friction(config["friction"]) == {"steer": "results/friction/testbed/steer_majd.json",
+                                                      "drive": "results/friction/testbed/drive_majd.json"}
+    if "real" in camp.datasets:       # the public real logs, through the same manifest mechanism
+        assert camp.stems("steer_coupled", "real") == [f"steer_coupled_20250429_{t}" for t in ("165825", "165853",
+                                                                                              "165914")]
+        assert camp.diagnosed_stems() == ["real_steer_stand", "real_shell_rock"]

@@ -14,7 +14,7 @@ from roboball.config import first_nonfinite, load_yaml
 from roboball.errors import RoboballError
 from roboball.pipeline.codedeps import stage_fingerprints
 from roboball.pipeline.allocator import job_preload
-from roboball.pipeline.plan import (REPLAYS, Campaign, friction_models, hydro_fit_settings, hydro_grid_moduli,
+from roboball.pipeline.plan import (REPLAYS, STAND_FIGURE, Campaign, hydro_fit_settings, hydro_grid_moduli,
                                     schedule_args, shell_pressure_groups, sweep_cases)
 
 
@@ -24,9 +24,12 @@ validate(config, "../../configs/schema/config.schema.yaml")
 if first_nonfinite(config):   # JSON Schema's bounds cannot refuse NaN
     raise WorkflowError("configs/config.yaml: field '{}': {} is not a finite number".format(*first_nonfinite(config)))
 
+# Relative paths of the config (the campaigns' folders, configs/) are the workflow's, wherever
+# Snakemake runs (make figures OUT=DIR runs it in DIR).
+BASE = "." if os.path.realpath(workflow.basedir) == os.path.realpath(os.getcwd()) else workflow.basedir
 # The robot facts (and every other configs/*.yaml with a schema, e.g. the friction priors) are
 # checked before any job runs; every stage then reads this workflow's configs/ folder.
-os.environ.setdefault("ROBOBALL_CONFIG_DIR", os.path.abspath("configs"))
+os.environ.setdefault("ROBOBALL_CONFIG_DIR", os.path.abspath(os.path.join(workflow.basedir, "configs")))
 # matplotlib's configuration and font cache per environment, not the user's shared ones: a cache
 # written by another matplotlib can make the PDFs embed another DejaVu Sans file (same pixels,
 # other bytes), and a personal matplotlibrc would restyle the figures.  In the environment when it
@@ -62,46 +65,54 @@ CODE = stage_fingerprints(CONFIG_DIR)
 
 ##### the campaign plan #####
 
-# What runs (the recordings, the ramp runs by pressure, the sweep cases, the replays) is planned
-# by the package, where it is tested: roboball.pipeline.plan.
+# What runs is planned by the package, where it is tested (roboball.pipeline.plan): the campaigns'
+# manifests are read and checked here, before any job, and the plan says what it makes and what it
+# skips, each skip with its reason.  Nothing fails because a kind is absent.
 try:
-    CAMPAIGN = Campaign.from_config(config)
+    CAMPAIGN = Campaign.from_config(config, base=BASE)
 except RoboballError as exc:
     raise WorkflowError(str(exc))
-for _note in CAMPAIGN.notes:
-    print(_note)
+for _line in CAMPAIGN.plan_lines(config["friction"]):
+    print("roboball plan: " + _line, file=sys.stderr)
 REC = CAMPAIGN.recordings
-REAL_ON = CAMPAIGN.real_on
+DATASETS = list(CAMPAIGN.datasets)
 stems = CAMPAIGN.stems
 
-SHELL = stems("shell_rock")
+# Shell releases: every one gets its decay; those of known pressure are regressed and simulated.
+SHELL_ALL = stems("shell_rock")
+SHELL = CAMPAIGN.known_pressure("shell_rock")
+REGRESSION = CAMPAIGN.has_regression()
 RAMP = stems("ramp")
-CONTACTS = config["shell"]["contact_models"]
-RAMP_CONTACTS = config["ramp"]["contact_models"]
-SWEEP = sweep_cases(config["shell"]["sweep_factors"])
+# Without a regression only the point contact runs (the others take zeta(p), omega_n(p)).
+CONTACTS = config["shell"]["contact_models"] if REGRESSION else []
+RAMP_CONTACTS = [c for c in config["ramp"]["contact_models"] if REGRESSION or c == "point"]
+SWEEP = sweep_cases(config["shell"]["sweep_factors"]) if REGRESSION else {}
 # The hydroelastic calibration (issue 25): its grid's columns (job -> modulus), the shell
 # recordings by pressure, and the table the tuned contact model (hydro_tuned) and others read.
 HYDRO = hydro_fit_settings(config["shell"])
 HYDRO_GRID = hydro_grid_moduli(HYDRO)
-SHELL_GROUPS = shell_pressure_groups(REC, SHELL)
+SHELL_GROUPS = shell_pressure_groups(REC, SHELL) if REGRESSION else {}
 HYDRO_TUNED = "results/identify/hydro_tuned.csv"
-if not SHELL_GROUPS and "hydro_tuned" in CONTACTS + RAMP_CONTACTS:
-    print("roboball: no shell recording with a known pressure: nothing to calibrate the tuned hydroelastic "
-          "model (hydro_tuned) on; it and Fig. S3 are skipped.")
+if not SHELL_GROUPS:
     CONTACTS = [c for c in CONTACTS if c != "hydro_tuned"]
     RAMP_CONTACTS = [c for c in RAMP_CONTACTS if c != "hydro_tuned"]
+REGRESSION_CSV = "results/identify/shell_regression.csv"
+# the campaigns whose shell and ramp figures these are, named in their titles
+SHELL_NAME = CAMPAIGN.name(CAMPAIGN.dataset_of("shell_rock"))
+RAMP_NAME = CAMPAIGN.name(CAMPAIGN.dataset_of("ramp"))
 
-# Friction: the stand recording of each (dataset, joint) and every fitted (dataset, joint, law):
-# the test bed's steer and drive stands, and the real steer-stand log when present.
-STAND = {("testbed", "steer"): "steer_stand_r1", ("testbed", "drive"): "drive_stand_r1",
-         ("real", "steer"): "real_steer_stand"}
-FITS = [("testbed", j, law) for j, law in friction_models(config["friction"])]
-if REAL_ON:
-    FITS += [("real", "steer", law) for law in config["friction"]["steer_laws"]]
+# Friction: every fitted (dataset, joint, law), each on all of that dataset's stand runs of the joint.
+FITS = CAMPAIGN.fits(config["friction"])
+FIT_DATASETS = list(dict.fromkeys(d for d, _, _ in FITS))
+# the dataset of Fig. 5 and of Table I's model comparison: the first with fits
+MAIN_FITS = FIT_DATASETS[0] if FIT_DATASETS else None
+STEER_COMPARED = [d for d in FIT_DATASETS if any(f[0] == d and f[1] == "steer" for f in FITS)]
+STAND_FIGS = [(d, j) for d in FIT_DATASETS for j in ("steer", "drive") if any(f[:2] == (d, j) for f in FITS)]
 # the workflow's priors (CONFIG_DIR, checked against their schema above)
 PRIORS = load_yaml(os.path.join(CONFIG_DIR, "priors.yaml"))
-# The test bed's Majd fits: the friction of every ramp simulation and ramp diagnosis.
-RAMP_FRICTION = {"steer": "results/friction/testbed/steer_majd.json", "drive": "results/friction/testbed/drive_majd.json"}
+# The Majd fits of the ramp runs' campaign: the friction of every ramp simulation and ramp
+# diagnosis (a joint without a stand runs with Table I's values, and the plan says so).
+RAMP_FRICTION = CAMPAIGN.ramp_friction(config["friction"])
 
 # The ramp runs grouped by pressure, for the pooled diagnoses (diagnose.smk).
 RAMP_GROUPS = CAMPAIGN.ramp_groups()
@@ -110,17 +121,28 @@ RAMP_GROUPS = CAMPAIGN.ramp_groups()
 DEFLATE = config.get("deflating_ramp", {})
 DEFLATE_SCHEDULE = DEFLATE.get("schedule", {})
 
-# Beyond the paper (issue 27, Fig. S2): the coupled steer test's real repeats, when present (and
-# the real steer stand's Majd fit, their steer friction, is among the fits).
-COUPLED_LOGS = ([os.path.join(config["real_data"]["path"], f) for f in config["real_data"].get("steer_coupled", [])]
-                if REAL_ON and "majd" in config["friction"]["steer_laws"] else [])
+# Beyond the paper (issue 27, Fig. S2): the coupled steer repeats of one campaign, with that
+# campaign's steer-stand Majd fit; its shell laws are the regression, else that campaign's shell
+# releases held constant (a pressure-free law: the repeats' pressure is then not fitted).
+COUPLED_SET = CAMPAIGN.coupled_dataset()
+if COUPLED_SET and ((COUPLED_SET, "steer", "majd") not in FITS
+                    or not (REGRESSION or stems("shell_rock", COUPLED_SET))):
+    COUPLED_SET = None
+COUPLED = stems("steer_coupled", COUPLED_SET) if COUPLED_SET else []
+COUPLED_LAWS = (REGRESSION_CSV if REGRESSION else f"results/identify/{COUPLED_SET}_shell_laws.csv") if COUPLED else ""
 
-PF = "paper_figures"
+PF = config.get("figures_dir", "paper_figures")
 # The paper tables the Snakemake report shows (rule table_page), by file stem.
 # Numbered: the report sorts its labels as text.
-TABLE_NAMES = {"table1_friction": "1. Table I: joint friction", "table2_robot": "2. Table II: the robot's numbers",
-               "table_pme": "3. PME (eq. 12) by contact model and pressure", "table_sweep": "4. Hydroelastic sweep"}
-if COUPLED_LOGS:
+TABLE_NAMES = {}
+if FITS:
+    TABLE_NAMES["table1_friction"] = "1. Table I: joint friction"
+TABLE_NAMES["table2_robot"] = "2. Table II: the robot's numbers"
+if RAMP:
+    TABLE_NAMES["table_pme"] = "3. PME (eq. 12) by contact model and pressure"
+if REGRESSION:
+    TABLE_NAMES["table_sweep"] = "4. Hydroelastic sweep"
+if COUPLED:
     TABLE_NAMES["table_coupled_rms"] = "5. Coupled steer test (Fig. S2): RMS by model"
 
 
@@ -131,47 +153,58 @@ def fit_json(dataset, joint, law):
 
 
 def fit_jsons(dataset=None):
-    """Every friction fit, or those of one dataset (testbed, real)."""
+    """Every friction fit, or those of one dataset (testbed, real, a user's campaign)."""
     return [fit_json(*f) for f in FITS if dataset is None or f[0] == dataset]
 
 
 def friction_comparisons():
     """The model comparisons the uncertainty report reads: the steer laws of each dataset."""
-    return ["results/friction/testbed/steer_comparison.csv"] + (["results/friction/real/steer_comparison.csv"] if REAL_ON else [])
+    return [f"results/friction/{d}/steer_comparison.csv" for d in STEER_COMPARED]
 
 
 def diagnosis_files(name):
     """`name` (diagnosis.json, details.json) of every diagnosis the uncertainty report reads: the
     stand and shell recordings' own, then each ramp pressure's pooled one."""
-    return ([f"results/diagnose/{s}/{name}" for s in stems("steer_stand", True) + stems("shell_rock", True)]
+    return ([f"results/diagnose/{s}/{name}" for s in CAMPAIGN.diagnosed_stems()]
             + [f"results/diagnose/pressure/{g}/{name}" for g in RAMP_GROUPS])
+
+
+def stand_figure(dataset, joint):
+    return f"{PF}/fig{STAND_FIGURE[joint]}_{dataset}_{joint}_fits.png"
 
 
 def report_figures():
     """The paper figures the uncertainty report links, in its order."""
-    return ([f"{PF}/fig5_friction_laws.png", f"{PF}/fig7_testbed_steer_fits.png", f"{PF}/fig8_testbed_drive_fits.png",
-             f"{PF}/fig10_shell_dynamics.png", f"{PF}/fig11_hydro_sensitivity.png", f"{PF}/fig13_ramp_pme.png",
-             f"{PF}/fig14_ramp_pme_mean.png"] + ([f"{PF}/figS3_hydro_calibration.png"] if SHELL_GROUPS else [])
-            + ([f"{PF}/fig7_real_steer_fits.png"] if REAL_ON else []))
+    out = [f"{PF}/fig5_friction_laws.png"] if FITS else []
+    out += [stand_figure(d, j) for d, j in STAND_FIGS if d == MAIN_FITS]
+    if REGRESSION:
+        out += [f"{PF}/fig10_shell_dynamics.png", f"{PF}/fig11_hydro_sensitivity.png"]
+    if RAMP:
+        out += [f"{PF}/fig13_ramp_pme.png", f"{PF}/fig14_ramp_pme_mean.png"]
+    if SHELL_GROUPS:
+        out += [f"{PF}/figS3_hydro_calibration.png"]
+    return out + [stand_figure(d, j) for d, j in STAND_FIGS if d != MAIN_FITS]
 
 
 def final_targets():
-    """The workflow's final targets (the Snakefile's `all`): the paper's figures and tables, the
-    replays, the friction figures, the uncertainty report, Fig. S1 and, with the real coupled
-    repeats, Fig. S2 and its table."""
-    targets = [
-        f"{PF}/fig10_shell_dynamics.png", f"{PF}/fig11_hydro_sensitivity.png",
-        f"{PF}/fig13_ramp_pme.png", f"{PF}/fig14_ramp_pme_mean.png",
-        f"{PF}/table_pme.csv", f"{PF}/table_pme.md", f"{PF}/table_sweep.md", f"{PF}/table2_robot.md",
-    ]
-    targets += [f"results/replays/{s}.html" for s in REPLAYS] + ["results/replays/meshcat.js", "results/replays/index.html"]
-    targets += [f"{PF}/fig5_friction_laws.png", f"{PF}/table1_friction.md",
-                f"{PF}/fig7_testbed_steer_fits.png", f"{PF}/fig8_testbed_drive_fits.png"]
+    """The workflow's final targets (the Snakefile's `all`): what the plan makes of the campaigns
+    (roboball.pipeline.plan): the paper's figures and tables, the replays, the friction figures,
+    the uncertainty report, Fig. S1 and, with coupled repeats, Fig. S2 and its table."""
+    targets = [f"{PF}/table2_robot.md"]
+    targets += [f"results/decay/{s}.csv" for s in SHELL_ALL]
+    if REGRESSION:
+        targets += [f"{PF}/fig10_shell_dynamics.png", f"{PF}/fig11_hydro_sensitivity.png", f"{PF}/table_sweep.md"]
+        targets += [f"results/replays/{s}.html" for s in REPLAYS]
+        targets += ["results/replays/meshcat.js", "results/replays/index.html", f"{PF}/figS1_deflating_ramp.png"]
+    if RAMP:
+        targets += [f"{PF}/fig13_ramp_pme.png", f"{PF}/fig14_ramp_pme_mean.png", f"{PF}/table_pme.csv",
+                    f"{PF}/table_pme.md"]
+    if FITS:
+        targets += [f"{PF}/fig5_friction_laws.png", f"{PF}/table1_friction.md"]
+    targets += [stand_figure(d, j) for d, j in STAND_FIGS]
     targets += [f"{PF}/corner/corner_{d}_{j}_{l}.png" for d, j, l in FITS]
-    if REAL_ON:
-        targets += [f"{PF}/fig7_real_steer_fits.png"]
-    targets += [f"{PF}/uncertainty_report.html", f"{PF}/figS1_deflating_ramp.png"]
-    if COUPLED_LOGS:
+    targets += [f"{PF}/uncertainty_report.html"]
+    if COUPLED:
         targets += [f"{PF}/figS2_steer_coupled.png", f"{PF}/table_coupled_rms.csv", f"{PF}/table_coupled_rms.md"]
     targets += [f"results/report/{t}.html" for t in TABLE_NAMES]
     if SHELL_GROUPS:
@@ -204,9 +237,10 @@ def get_sidecar(wildcards):
 
 
 def get_stand_recording(wildcards):
-    """The ingested stand recording a friction fit of (dataset, joint) is made on."""
-    stem = STAND[(wildcards.dataset, wildcards.joint)]
-    return {"csv": f"results/ingest/{stem}.csv", "releases": f"results/ingest/{stem}.releases.json"}
+    """The ingested stand runs a friction fit of (dataset, joint) is made on, fitted together."""
+    runs = CAMPAIGN.stand_stems(wildcards.dataset, wildcards.joint)
+    return {"csv": [f"results/ingest/{s}.csv" for s in runs],
+            "releases": [f"results/ingest/{s}.releases.json" for s in runs]}
 
 
 def get_stand_fits(wildcards):
@@ -219,6 +253,11 @@ def get_prior_json(wildcards):
     prior does not rerun this fit."""
     joint = PRIORS[wildcards.joint]
     return json.dumps({wildcards.joint: {wildcards.law: joint[wildcards.law], "stand": joint["stand"]}}, sort_keys=True)
+
+
+def get_ramp_friction_args(wildcards, input):
+    """The ramp stages' friction flags: the Majd fits there are (Table I's values otherwise)."""
+    return " ".join(f"--friction-{j} {input[j]}" for j in ("steer", "drive") if j in RAMP_FRICTION)
 
 
 def get_hydro_fit(wildcards):

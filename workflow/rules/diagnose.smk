@@ -39,12 +39,11 @@ rule diagnose_ramp_pressure:
         report="results/diagnose/pressure/{group}/report.md",
         details="results/diagnose/pressure/{group}/details.json",
         figures=expand("results/diagnose/pressure/{{group}}/{name}.png", name=("overlay", "regimes", "windows")),
-    params: code=CODE["diagnose-recording"]
+    params: code=CODE["diagnose-recording"], friction=get_ramp_friction_args
     log: "results/logs/diagnose/pressure/{group}.log"
     benchmark: "results/benchmarks/diagnose/pressure/{group}.tsv"
     shell:
-        "{ROBOBALL} diagnose-recording --recording {input.csv} --friction-steer {input.steer} "
-        "--friction-drive {input.drive} --out-dir results/diagnose/pressure/{wildcards.group} > {log} 2>&1"
+        "{ROBOBALL} diagnose-recording --recording {input.csv} {params.friction} --out-dir results/diagnose/pressure/{wildcards.group} > {log} 2>&1"
 
 
 rule diagnose_ramp_heldout:
@@ -57,12 +56,11 @@ rule diagnose_ramp_heldout:
         report="results/diagnose/heldout/{stem}/report.md",
         details="results/diagnose/heldout/{stem}/details.json",
         figures=expand("results/diagnose/heldout/{{stem}}/{name}.png", name=("overlay", "regimes", "windows")),
-    params: code=CODE["diagnose-recording"]
+    params: code=CODE["diagnose-recording"], friction=get_ramp_friction_args
     log: "results/logs/diagnose/heldout/{stem}.log"
     benchmark: "results/benchmarks/diagnose/heldout/{stem}.tsv"
     shell:
-        "{ROBOBALL} diagnose-recording --recording {input.csv} --friction-steer {input.steer} "
-        "--friction-drive {input.drive} --out-dir results/diagnose/heldout/{wildcards.stem} > {log} 2>&1"
+        "{ROBOBALL} diagnose-recording --recording {input.csv} {params.friction} --out-dir results/diagnose/heldout/{wildcards.stem} > {log} 2>&1"
 
 
 rule ramp_diagnosed:

@@ -7,14 +7,14 @@
 rule table1:
     input:
         fits=fit_jsons(),
-        comparison="results/friction/testbed/steer_comparison.csv",
+        comparison=[f"results/friction/{MAIN_FITS}/steer_comparison.csv"] if MAIN_FITS in STEER_COMPARED else [],
     output:
         csv=f"{PF}/table1_friction.csv",
         md=f"{PF}/table1_friction.md",
     params: code=CODE["table1"]
     log: "results/logs/table1.log"
     shell:
-        "{ROBOBALL} table1 --fits {input.fits} --comparison-csv {input.comparison} "
+        "{ROBOBALL} table1 --fits {input.fits} --comparison-csv '{input.comparison}' "
         "--out-csv {output.csv} --out-md {output.md} > {log} 2>&1"
 
 
@@ -29,10 +29,10 @@ rule table2:
 
 
 rule fig5:
-    input: fit_jsons("testbed")
+    input: fit_jsons(MAIN_FITS)
     output:
         png=report(f"{PF}/fig5_friction_laws.png", category="2 Friction", caption="../report/fig5.rst",
-                   labels={"figure": "Fig. 5", "dataset": "testbed", "joint": "steer, drive", "law": "every law"}),
+                   labels={"figure": "Fig. 5", "dataset": str(MAIN_FITS), "joint": "steer, drive", "law": "every law"}),
         pdf=f"{PF}/fig5_friction_laws.pdf",
     params: code=CODE["fig5"]
     log: "results/logs/fig5.log"
@@ -50,7 +50,7 @@ rule fig_stand:
     params:
         code=CODE["fig-stand-fits"],
         title=lambda w: f"Fig. {w.num}: {w.joint} stand ({w.dataset}): data and fitted friction simulated in Drake",
-    wildcard_constraints: num="7|8", dataset="testbed|real", joint="steer|drive"
+    wildcard_constraints: num="7|8", dataset="|".join(DATASETS), joint="steer|drive"
     log: "results/logs/fig{num}_{dataset}_{joint}.log"
     shell:
         "{ROBOBALL} fig-stand-fits --recording {input.csv} --releases {input.releases} --fits {input.fits} "
@@ -66,7 +66,7 @@ rule fig10:
         png=report(f"{PF}/fig10_shell_dynamics.png", category="3 Shell", caption="../report/fig10.rst",
                    labels={"figure": "Fig. 10: shell dynamics"}),
         pdf=f"{PF}/fig10_shell_dynamics.pdf",
-    params: code=CODE["fig10"], campaign=config.get("campaign", "")
+    params: code=CODE["fig10"], campaign=SHELL_NAME
     log: "results/logs/fig10.log"
     shell:
         "{ROBOBALL} fig10 --points {input.points} --regression {input.regression} --sims {input.sims} "
@@ -87,7 +87,7 @@ rule fig11:
         code=CODE["fig11"],
         m=config["shell"]["carried_forward"]["modulus_scale"],
         d=config["shell"]["carried_forward"]["dissipation_scale"],
-        campaign=config.get("campaign", ""),
+        campaign=SHELL_NAME,
     log: "results/logs/fig11.log"
     shell:
         "{ROBOBALL} fig11 --sweep {input.sweep} --points {input.points} --out-png {output.png} "
@@ -107,7 +107,7 @@ rule fig13_14:
         md=f"{PF}/table_pme.md",
     params:
         code=CODE["fig13-14"],
-        campaign=config.get("campaign", ""),
+        campaign=RAMP_NAME,
         hydro=lambda w: " ".join(f"{k.split('_')[0]} x{v:g}" for k, v in config["shell"]["carried_forward"].items()
                                  if v != 1.0) or "eq. 10-11",
     log: "results/logs/fig13_14.log"
@@ -134,7 +134,7 @@ rule figS3_hydro_calibration:
     params:
         code=CODE["figs2"],
         authors=json.dumps(config["shell"].get("authors_hydro", [])),
-        campaign=config.get("campaign", ""),
+        campaign=SHELL_NAME,
     log: "results/logs/figS3_hydro_calibration.log"
     shell:
         "{ROBOBALL} figs2 --table {input.table} --law {input.law} --grid-csvs {input.grid} "
@@ -149,6 +149,6 @@ rule corner:
                    labels={"figure": "corner plot", "dataset": "{dataset}", "joint": "{joint}", "law": "{law}"}),
         pdf=f"{PF}/corner/corner_{{dataset}}_{{joint}}_{{law}}.pdf",
     params: code=CODE["corner-plot"]
-    wildcard_constraints: dataset="testbed|real", joint="steer|drive", law="viscous|coulomb_viscous|majd"
+    wildcard_constraints: dataset="|".join(DATASETS), joint="steer|drive", law="viscous|coulomb_viscous|majd"
     log: "results/logs/corner/{dataset}_{joint}_{law}.log"
     shell: "{ROBOBALL} corner-plot --fit {input} --out-png {output.png} > {log} 2>&1"

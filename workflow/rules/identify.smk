@@ -20,6 +20,16 @@ rule shell_regression:
 # over a grid of moduli (one job per modulus) and dissipations, released like the recordings;
 # then at each pressure the modulus and dissipation that reproduce the recorded zeta and
 # omega_n, with Drake in the loop, and 95% intervals; the table and the contact-volume law V(p).
+# A campaign whose shell releases cannot give a regression (one pressure, or none logged): its
+# releases' mean zeta and omega_n, the same at every pressure, for the coupled test (Fig. S2).
+rule shell_constant_laws:
+    input: lambda w: [f"results/decay/{s}.csv" for s in stems("shell_rock", w.dataset)]
+    output: "results/identify/{dataset}_shell_laws.csv"
+    params: code=CODE["shell-constant-laws"]
+    log: "results/logs/{dataset}_shell_laws.log"
+    shell: "{ROBOBALL} shell-constant-laws --decay-csvs {input} --out-table {output} > {log} 2>&1"
+
+
 rule hydro_grid:
     input: expand("results/ingest/{stem}.releases.json", stem=SHELL)
     output: "results/hydro/grid/{col}.csv"
@@ -84,7 +94,7 @@ rule friction_fit:
         multiple=config["friction"]["autocorr_multiple"],
         max_steps=config["friction"]["max_steps"],
         seed=config["seed"],
-    wildcard_constraints: dataset="testbed|real", joint="steer|drive", law="viscous|coulomb_viscous|majd"
+    wildcard_constraints: dataset="|".join(DATASETS), joint="steer|drive", law="viscous|coulomb_viscous|majd"
     # The compiled reduced model can simulate the walkers' releases in parallel threads (Numba),
     # but a fit keeps two threads only 1.0-1.5 busy (measured: 94-153% load), so two cores held by
     # one fit sat half idle for 100 s of a 650 s run; one thread each, the chains are the same

@@ -15,11 +15,13 @@ rule ingest:
         code=CODE["ingest"],
         kind=lambda w: REC[w.stem]["kind"],
         pressure=lambda w: REC[w.stem]["pressure_kpa"],
+        angle=lambda w: REC[w.stem]["ramp_angle_deg"],
     log: "results/logs/ingest/{stem}.log"
     benchmark: "results/benchmarks/ingest/{stem}.tsv"
     shell:
         "{ROBOBALL} ingest --src {input.src} --out-csv {output.csv} --out-releases {output.releases} "
-        "--qc-png {output.qc} --kind {params.kind} --pressure-kpa '{params.pressure}' > {log} 2>&1"
+        "--qc-png {output.qc} --kind {params.kind} --pressure-kpa '{params.pressure}' --ramp-angle-deg '{params.angle}' "
+        "> {log} 2>&1"
 
 
 rule decay:

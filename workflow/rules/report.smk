@@ -9,9 +9,9 @@ rule uncertainty_report:
     input:
         fits=fit_jsons(),
         comparisons=friction_comparisons(),
-        regression="results/identify/shell_regression.csv",
-        pme=f"{PF}/table_pme.csv",
-        sweep=f"{PF}/table_sweep.md",
+        regression=[REGRESSION_CSV] if REGRESSION else [],
+        pme=[f"{PF}/table_pme.csv"] if RAMP else [],
+        sweep=[f"{PF}/table_sweep.md"] if REGRESSION else [],
         diagnoses=diagnosis_files("diagnosis.json"),
         # read beside each diagnosis.json: the candidates supported by the data but below materiality
         details=diagnosis_files("details.json"),
@@ -25,7 +25,7 @@ rule uncertainty_report:
     log: "results/logs/uncertainty_report.log"
     shell:
         "{ROBOBALL} uncertainty-report --fits {input.fits} --comparisons {input.comparisons} "
-        "--regression {input.regression} --pme-table {input.pme} --sweep-md {input.sweep} "
+        "--regression '{input.regression}' --pme-table '{input.pme}' --sweep-md '{input.sweep}' "
         "--figures {input.figures} --diagnoses {input.diagnoses} --ramp-friction {input.ramp_friction} --out-html {output} > {log} 2>&1"
 
 

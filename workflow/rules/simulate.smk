@@ -65,7 +65,7 @@ rule ramp_sim:
     input:
         csv="results/ingest/{stem}.csv",
         releases="results/ingest/{stem}.releases.json",
-        regression="results/identify/shell_regression.csv",
+        regression=[REGRESSION_CSV] if REGRESSION else [],
         hydro_fit=get_hydro_fit,
         **RAMP_FRICTION,
     output:
@@ -77,12 +77,13 @@ rule ramp_sim:
         dt=config["ramp"]["dt_s"],
         draws=config["ramp"]["posterior_draws"],
         seed=config["seed"],
+        friction=get_ramp_friction_args,
     wildcard_constraints: contact="point|injected|hydroelastic|hydro_tuned"
     log: "results/logs/ramp/{contact}/{stem}.log"
     benchmark: "results/benchmarks/ramp/{contact}/{stem}.tsv"
     shell:
-        "{ROBOBALL} ramp-sim --recording {input.csv} --releases {input.releases} --regression {input.regression} "
-        "--contact {wildcards.contact} --hydro-fit '{input.hydro_fit}' --friction-steer {input.steer} --friction-drive {input.drive} "
+        "{ROBOBALL} ramp-sim --recording {input.csv} --releases {input.releases} --regression '{input.regression}' "
+        "--contact {wildcards.contact} --hydro-fit '{input.hydro_fit}' {params.friction} "
         "--modulus-scale {params.scales[0]} --dissipation-scale {params.scales[1]} --dt {params.dt} "
         "--posterior-draws {params.draws} --seed {params.seed} --out-csv {output.pme} --out-trace {output.trace} > {log} 2>&1"
 
@@ -178,9 +179,11 @@ rule figS2_steer_coupled:
     # shell model, our fit of the authors' objective and the held-out diagnosed model
     # (roboball.pipeline.coupled).  The steer friction is the real stand's Majd fit.
     input:
-        recordings=COUPLED_LOGS,
-        regression="results/identify/shell_regression.csv",
-        friction=fit_json("real", "steer", "majd"),
+        # read as recorded (their ingest checks them and draws their QC plots first)
+        recordings=[REC[s]["src"] for s in COUPLED],
+        ingested=[f"results/ingest/{s}.csv" for s in COUPLED],
+        regression=COUPLED_LAWS,
+        friction=fit_json(COUPLED_SET, "steer", "majd"),
         hydro_fit=[HYDRO_TUNED] if SHELL_GROUPS else [],
     output:
         png=report(f"{PF}/figS2_steer_coupled.png", category="6 Beyond the paper", caption="../report/figS2.rst",

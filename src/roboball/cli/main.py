@@ -231,7 +231,7 @@ def register_command(fn):
 
 def _load_plugins():
     import importlib
-    for mod in ("roboball.cli.diagnose", "roboball.cli.stage", "roboball.cli.report"):
+    for mod in ("roboball.cli.diagnose", "roboball.cli.stage", "roboball.cli.report", "roboball.cli.manifest"):
         try:
             importlib.import_module(mod)
         except ModuleNotFoundError as exc:

@@ -77,16 +77,17 @@ def _drake_release(kind: str, f: FrictionFit, q0: float, shift: float, duration:
     return t, y
 
 
-def _drake_fits(rec, rels: list, fits: list) -> dict:
-    """Per fit: its Drake releases [(t, y), ...] and the RMS of the recording about them over
-    every release's free response (what Fig. 7/8 show)."""
-    t_all, y_all = rec.time, rec.signal(rec.main_signal())
+def _drake_fits(pairs: list, fits: list) -> dict:
+    """Per fit: its Drake releases [(t, y), ...] and the RMS of the recordings about them over
+    every release's free response (what Fig. 7/8 show).  `pairs`: (recording, release) in the
+    order the fit's segments were built (stand runs fitted together, one after another)."""
     out = {}
     for f in fits:
         angles = f.release_angle_medians()
-        shifts = f.release_shift_medians() or [0.0] * len(rels)
+        shifts = f.release_shift_medians() or [0.0] * len(pairs)
         traces, res = [], []
-        for i, r in enumerate(rels):
+        for i, (rec, r) in enumerate(pairs):
+            t_all, y_all = rec.time, rec.signal(rec.main_signal())
             q0 = angles[i] if angles and i < len(angles) else r["y_release"]
             tr = _drake_release(rec.kind, f, q0, shifts[i], r["t_end_s"] - r["t_release_s"])
             m = (t_all >= r["t_release_s"]) & (t_all <= r["t_end_s"])
@@ -96,20 +97,25 @@ def _drake_fits(rec, rels: list, fits: list) -> dict:
     return out
 
 
-def fig_stand_fits(recording: str, releases: str, fits: list, out_png: str, title: str = "") -> None:
-    """Stand data (every release) overlaid with each fitted law simulated in Drake on the
-    calibrated stand from the fitted release angle and instant (Fig. 7 for the steer stand,
-    Fig. 8 for the drive stand); the legend gives each law's RMS against the recording."""
+def fig_stand_fits(recording: list, releases: list, fits: list, out_png: str, title: str = "") -> None:
+    """Stand data (every release of every run) overlaid with each fitted law simulated in Drake
+    on the calibrated stand from the fitted release angle and instant (Fig. 7 for the steer
+    stand, Fig. 8 for the drive stand); the legend gives each law's RMS against the recordings.
+    Several runs of one joint (fitted together) are drawn one after another."""
     from roboball.ingest.recording import read_recording
 
-    rec = read_recording(recording)
-    with open(releases, encoding="utf-8") as fh:
-        rels = json.load(fh)["releases"]
+    recording = [recording] if isinstance(recording, str) else list(recording)
+    releases = [releases] if isinstance(releases, str) else list(releases)
+    pairs = []
+    for rec_path, rel_path in zip(recording, releases):
+        rec = read_recording(rec_path)
+        with open(rel_path, encoding="utf-8") as fh:
+            pairs += [(rec, r) for r in json.load(fh)["releases"]]
     fits = [read_fit(f) for f in fits]
-    drake = _drake_fits(rec, rels, fits)
-    sig = rec.main_signal()
-    fig, axes = plt.subplots(len(rels), 1, figsize=(9, 2.6 * len(rels)), squeeze=False)
-    for i, (ax, r) in enumerate(zip(axes[:, 0], rels)):
+    drake = _drake_fits(pairs, fits)
+    fig, axes = plt.subplots(len(pairs), 1, figsize=(9, 2.6 * len(pairs)), squeeze=False)
+    for i, (ax, (rec, r)) in enumerate(zip(axes[:, 0], pairs)):
+        sig = rec.main_signal()
         t, y = rec.time, rec.signal(sig)
         m = (t >= r["t_release_s"] - 0.3) & (t <= r["t_end_s"])
         ax.plot(t[m] - r["t_release_s"], y[m], "k.", ms=2.5, label="recording")
@@ -122,11 +128,12 @@ def fig_stand_fits(recording: str, releases: str, fits: list, out_png: str, titl
                           f"{st['delta_i']:.3g} kg m^2, offset {st['rest_offset'] * 1e3:.1f} mrad"
                           + ("; chain NOT converged" if unconverged else ""))
         ax.set_ylabel(f"{sig[:-4].replace('_', ' ')} (rad)")
-        ax.set_title(f"release {i + 1} at {r['t_release_s']:.2f} s", fontsize=9)
+        run = f"{Path(rec.path).stem}, " if len(recording) > 1 else ""
+        ax.set_title(f"{run}release {i + 1} at {r['t_release_s']:.2f} s", fontsize=9)
     axes[-1, 0].set_xlabel("time since release (s)")
     # Below the panels: inside the first one the legend covered the swings' troughs.
     fig.legend(*axes[0, 0].get_legend_handles_labels(), fontsize=7, loc="outside lower center")
-    fig.suptitle((title or f"{Path(recording).stem}: data and fitted friction laws")
+    fig.suptitle((title or f"{' + '.join(Path(p).stem for p in recording)}: data and fitted friction laws")
                  + "\n(each law on the stand it calibrated, let go at its fitted angle and instant)", fontsize=10)
     save(fig, out_png)
 

@@ -31,6 +31,9 @@ IN_SAMPLE = ("authors_nm", "authors_hand", "ours_nm")
 PAPER_MODELS = ("point", "injected", "hydroelastic", "hydro_half", "authors_nm", "authors_hand", "hydro_tuned")
 
 
+_WORDS = {2: "two", 3: "three", 4: "four", 5: "five"}
+
+
 def _rows(name, rep, pred, held_out, p_kpa):
     from roboball.diagnose.coupled import rms
     e = rms(pred, rep)
@@ -45,12 +48,13 @@ def _trace(name, rep, pred) -> pd.DataFrame:
 
 
 def run_models(reps, laws, friction, pressure, authors_fit, diagnosed, extra=()) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """(table, traces): every model of MODELS and `extra` on every repeat (see the module docstring)."""
+    """(table, traces): every model of MODELS and `extra` on every repeat (see the module docstring);
+    with pressure-free shell laws, the injected shell and the models without a pressure."""
     from roboball.diagnose.coupled import run
     from roboball.sim.coupled import MODELS, coupled_spec, fixed_hydro
 
     rows, traces = [], [_trace("recording", r, {"pipe_angle_rad": r.pipe, "steer_angle_rad": r.steer}) for r in reps]
-    for m in (*MODELS, *extra):
+    for m in (*models_for(laws, MODELS), *models_for(laws, extra)):
         for r in reps:
             p = pressure.folds.get(r.name, pressure.p_kpa) if m.needs_pressure else None
             spec = coupled_spec(*m.shell(p, laws), friction)
@@ -68,9 +72,26 @@ def run_models(reps, laws, friction, pressure, authors_fit, diagnosed, extra=())
     for fold in diagnosed:
         r = by_name[fold["fold"]]
         pred = run(fold["spec"], r)
-        rows.append(_rows("diagnosed", r, pred, True, fold["pressure_kpa"]))
+        rows.append(_rows("diagnosed", r, pred, True, None if laws.pressure_free else fold["pressure_kpa"]))
         traces.append(_trace("diagnosed", r, pred))
-    return pd.DataFrame(rows), pd.concat(traces, ignore_index=True)
+    table = pd.DataFrame(rows)
+    if laws.pressure_free:           # the pressure was not fitted: no row has one
+        table["pressure_kpa"] = np.nan
+    return table, pd.concat(traces, ignore_index=True)
+
+
+def models_for(laws, models) -> tuple:
+    """The shell models that can run with `laws`: all of them, or, with pressure-free laws (the
+    repeats' pressure unknown and not fittable), the injected shell (its zeta and omega_n are the
+    laws' constants) and the models that need no pressure."""
+    return tuple(m for m in models if not laws.pressure_free or not m.needs_pressure or m.name == "injected")
+
+
+def unfitted_pressure(reps):
+    """The pressure of pressure-free laws: not fitted (every value gives the same shell); the
+    models run at 0 kPa, which the laws ignore, and the table and summary say 'not fitted'."""
+    from roboball.diagnose.coupled import PressureFit
+    return PressureFit(0.0, (float("nan"), float("nan")), (), [], {r.name: 0.0 for r in reps})
 
 
 def beats_paper_models(table: pd.DataFrame) -> dict:
@@ -111,10 +132,17 @@ def table_markdown(table: pd.DataFrame, summary: dict) -> str:
         lines.append(f"| {r.model} | {r['repeat']} | {'yes' if r.held_out else 'no (in-sample)'} | {p} | "
                      f"{r.rms_pipe_angle_rad:.4f} | {r.rms_steer_angle_rad:.4f} |")
     pf, af = summary["pressure"], summary["authors_objective"]
-    lines += ["", f"Pressure (not logged), fitted with the injected model, shared by the three repeats: "
-              f"{pf['p_kpa']:.1f} kPa, 95 % profile interval [{pf['ci95_kpa'][0]:.1f}, {pf['ci95_kpa'][1]:.1f}] kPa; "
-              "leave-one-out folds: " + ", ".join(f"{v:.1f}" for v in pf["folds"].values()) + " kPa.",
-              "", f"Authors' objective (exp(-t/3 s)-weighted mean squared pipe-angle error against the repeats' "
+    if pf.get("model") == "not fitted":
+        lines += ["", "Pressure (not logged): not fitted. The campaign's shell laws do not depend on pressure (its "
+                  f"shell releases at one pressure or at none logged: zeta {pf['zeta']:.3f}, omega_n "
+                  f"{pf['omega_n_rad_s']:.3f} rad/s), so the injected shell runs with them and the models that "
+                  "need a pressure (hydroelastic eq. 10/11) are left out."]
+    else:
+        n = _WORDS.get(len(pf["folds"]), len(pf["folds"]))
+        lines += ["", f"Pressure (not logged), fitted with the injected model, shared by the {n} repeats: "
+                  f"{pf['p_kpa']:.1f} kPa, 95 % profile interval [{pf['ci95_kpa'][0]:.1f}, {pf['ci95_kpa'][1]:.1f}] kPa; "
+                  "leave-one-out folds: " + ", ".join(f"{v:.1f}" for v in pf["folds"].values()) + " kPa."]
+    lines += ["", f"Authors' objective (exp(-t/3 s)-weighted mean squared pipe-angle error against the repeats' "
               f"average) in our Drake model: theirs {af['theirs_loss_rad2']:.5f} rad^2 at "
               f"[{af['theirs_params'][0]:.4g} Pa, {af['theirs_params'][1]:.4g} s/m]; ours {af['ours_loss_rad2']:.5f} "
               f"rad^2 at [{af['ours_params'][0]:.4g} Pa, {af['ours_params'][1]:.4g} s/m] "
@@ -139,7 +167,7 @@ def steer_coupled(recordings: list, regression: str, friction_steer: str, out_js
     reps = read_repeats(recordings)
     laws = ShellLaws.from_regression_csv(regression)
     friction = read_stand_friction(friction_steer)
-    pressure = fit_pressure(reps, laws, friction)
+    pressure = unfitted_pressure(reps) if laws.pressure_free else fit_pressure(reps, laws, friction)
     authors = fit_authors_objective(reps, friction, max_evals=nm_evals)
     diagnosed = held_out(reps, laws, friction, pressure)
     extra = ()
@@ -149,9 +177,11 @@ def steer_coupled(recordings: list, regression: str, friction_steer: str, out_js
         extra = (calibrated(lambda p: tuned_at(hydro_fit, p)),)
     table, traces = run_models(reps, laws, friction, pressure, authors, diagnosed, extra)
     summary = {
-        "pressure": {"p_kpa": pressure.p_kpa, "ci95_kpa": list(pressure.ci95_kpa), "folds": pressure.folds,
-                     "grid_kpa": list(pressure.grid_kpa), "sse_grid_rad2": pressure.sse_grid,
-                     "extrapolated": pressure.extrapolated, "model": "injected"},
+        "pressure": ({"p_kpa": None, "model": "not fitted", "zeta": laws.zeta_a, "omega_n_rad_s": laws.omega_n_c,
+                      "folds": {}} if laws.pressure_free else
+                     {"p_kpa": pressure.p_kpa, "ci95_kpa": list(pressure.ci95_kpa), "folds": pressure.folds,
+                      "grid_kpa": list(pressure.grid_kpa), "sse_grid_rad2": pressure.sse_grid,
+                      "extrapolated": pressure.extrapolated, "model": "injected"}),
         "authors_objective": authors,
         "diagnosed": [{k: v for k, v in f.items() if k != "spec"} for f in diagnosed],
         "diagnosed_beats_paper_models": beats_paper_models(table),
@@ -163,6 +193,6 @@ def steer_coupled(recordings: list, regression: str, friction_steer: str, out_js
     write_csv_atomic(traces, out_csv)
     summary["wall_s"] = time.perf_counter() - t0
     write_json_atomic(out_json, summary)
-    print(f"steer_coupled: pressure {pressure.p_kpa:.1f} kPa {pressure.ci95_kpa}; authors' loss theirs "
+    print(f"steer_coupled: pressure {summary['pressure']['p_kpa']} kPa {pressure.ci95_kpa}; authors' loss theirs "
           f"{authors['theirs_loss_rad2']:.5f}, ours {authors['ours_loss_rad2']:.5f}; diagnosed beats the paper "
           f"models on {summary['diagnosed_beats_paper_models']}; {summary['wall_s']:.1f} s")

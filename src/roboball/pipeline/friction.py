@@ -11,10 +11,11 @@ STAGES = ("friction_fit", "friction_comparison")
 FIT_MODULE = "roboball.identify.friction.fit"
 
 
-def friction_fit(recording: str, releases: str, joint: str, law: str, prior_json: str, chain: str,
+def friction_fit(recording: list, releases: list, joint: str, law: str, prior_json: str, chain: str,
                  out_json: str, out_samples: str, walkers: int = 32, autocorr_multiple: float = 50.0,
                  max_steps: int = 20000, seed: int = 0) -> None:
-    """Least squares then emcee posterior of `law` on `joint`.  The HDF5 chain is the rule's
+    """Least squares then emcee posterior of `law` on `joint`, over every stand run given (one
+    releases file each, fitted together).  The HDF5 chain is the rule's
     resumable cache: an interrupted run continues it; a chain of another fit (data, prior,
     robot facts, settings or the code changed, which is why Snakemake reruns the rule) is
     sampled afresh."""
@@ -22,7 +23,8 @@ def friction_fit(recording: str, releases: str, joint: str, law: str, prior_json
     from roboball.identify.friction.results import write_fit
     from roboball.pipeline.codedeps import source_fingerprint
 
-    res, samples = fit(recording, releases, joint, law, json.loads(prior_json), chain, walkers=walkers,
+    res, samples = fit(recording[0] if len(recording) == 1 else recording,
+                       releases[0] if len(releases) == 1 else releases, joint, law, json.loads(prior_json), chain, walkers=walkers,
                        autocorr_multiple=autocorr_multiple, max_steps=max_steps, seed=seed, stale="restart",
                        code=source_fingerprint(FIT_MODULE))
     write_fit(out_json, out_samples, res, samples)

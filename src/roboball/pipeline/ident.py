@@ -10,13 +10,14 @@ import pandas as pd
 from roboball.atomic import write_csv_atomic, write_json_atomic
 from roboball.errors import RoboballError
 
-STAGES = ("ingest", "decay", "shell_regression")
+STAGES = ("ingest", "decay", "shell_regression", "shell_constant_laws")
 
 
 def _float_or_none(x):
     """A flag value as float, or None when it is empty or not a number ("", "None", "null",
-    and "nan", which is how the campaign MANIFEST writes a pressure that does not apply)."""
-    if x is None or str(x).strip().lower() in ("", "none", "null", "nan"):
+    "nan", which is how the campaign MANIFEST writes a pressure that does not apply, and
+    "unknown", a pressure that was never logged)."""
+    if x is None or str(x).strip().lower() in ("", "none", "null", "nan", "unknown"):
         return None
     try:
         return float(x)
@@ -24,9 +25,11 @@ def _float_or_none(x):
         raise RoboballError(f"--pressure-kpa {x!r}: not a number; give the gauge pressure in kPa or leave it empty")
 
 
-def ingest(src: str, out_csv: str, out_releases: str, qc_png: str, kind: str = "", pressure_kpa: str = "") -> None:
+def ingest(src: str, out_csv: str, out_releases: str, qc_png: str, kind: str = "", pressure_kpa: str = "",
+           ramp_angle_deg: str = "") -> None:
     """Validate and normalise one recording (native formats imported), find its releases,
-    write the normalised recording, a releases JSON and a QC plot."""
+    write the normalised recording, a releases JSON and a QC plot.  `kind`, `pressure_kpa` and
+    `ramp_angle_deg` (the campaign manifest's) override the recording's sidecar."""
     from roboball.ingest.importers import read_any
     from roboball.ingest.recording import normalise, write_recording
 
@@ -36,6 +39,8 @@ def ingest(src: str, out_csv: str, out_releases: str, qc_png: str, kind: str = "
     pressure = _float_or_none(pressure_kpa)
     if pressure is not None:
         flags["pressure_kpa"] = pressure
+    if _float_or_none(ramp_angle_deg) is not None:
+        flags["ramp_angle_deg"] = float(ramp_angle_deg)
     rec = normalise(read_any(src, **flags))
     # Imported only once the file is known to be good, so bad input fails fast (scipy is slow to load).
     from roboball.ingest.releases.find import require_releases
@@ -76,3 +81,28 @@ def shell_regression(decay_csvs: list, out_points: str, out_table: str) -> None:
         raise RoboballError("shell regression: no shell_rock release with a known pressure")
     write_csv_atomic(pts, out_points)
     write_csv_atomic(regression_table(pts), out_table)
+
+
+def shell_constant_laws(decay_csvs: list, out_table: str) -> None:
+    """The shell laws of a campaign whose releases cannot give a regression (one pressure, or
+    none logged): zeta and omega_n held at the releases' means, the same at every pressure
+    (zeta_b = omega_n_d = 0), with their standard errors; the table reads like the regression's
+    (roboball.sim.schedule.ShellLaws), and its row pressure_free says what it is."""
+    pts = pd.concat([pd.read_csv(p) for p in sorted(decay_csvs)], ignore_index=True)
+    pts = pts[np.isfinite(pts.zeta) & np.isfinite(pts.omega_n_rad_s)]
+    if pts.empty:
+        raise RoboballError(f"{' '.join(decay_csvs)}: no shell release with a damping ratio and frequency to take "
+                            "the shell laws from")
+    n = len(pts)
+
+    def row(name, values, unit):
+        se = float(np.std(values, ddof=1) / np.sqrt(n)) if n > 1 else float("nan")
+        v = float(np.mean(values))
+        return {"name": name, "value": v, "se": se, "ci95_low": v - 1.96 * se, "ci95_high": v + 1.96 * se,
+                "unit": unit, "n_points": n, "dof": n - 1}
+
+    zero = {"value": 0.0, "se": 0.0, "ci95_low": 0.0, "ci95_high": 0.0, "n_points": n, "dof": n - 1}
+    table = pd.DataFrame([row("zeta_a", pts.zeta, "-"), {"name": "zeta_b", **zero, "unit": "1/kPa"},
+                          row("omega_n_c", pts.omega_n_rad_s, "rad/s"), {"name": "omega_n_d", **zero, "unit": "rad/s/kPa"},
+                          {"name": "pressure_free", **zero, "value": 1.0, "unit": "-"}])
+    write_csv_atomic(table, out_table)

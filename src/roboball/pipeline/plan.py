@@ -1,68 +1,136 @@
-"""The campaign plan the workflow expands: which recordings there are, how the ramp runs group by
-pressure, which hydroelastic sweep cases and replays run.  The Snakefile's rules only name files;
-every choice of what to run is made here, where it is tested (tests/pipeline/test_plan.py).
+"""The campaign plan the workflow expands: which recordings there are, what can be made of them
+and what is skipped (each with its reason), how the ramp runs group by pressure, which
+hydroelastic sweep cases and replays run.  The Snakefile's rules only name files; every choice of
+what to run is made here, where it is tested (tests/pipeline/test_plan.py).
+
+A campaign is a folder of recordings and the manifest that lists them; a run analyses one or
+more campaigns (config `campaigns`; `make figures RAW=DIR` analyses DIR alone).  Each campaign's
+recordings are a dataset of their own (its `id`: stand fits, Fig. 7/8, the coupled test); the
+shell regression pools every shell release of known pressure in the run.
 
     from roboball.pipeline.plan import Campaign
-    camp = Campaign.from_config(config)          # the workflow's config.yaml, already validated
-    camp.stems("ramp")                           # ['ramp_10.3kpa_r1', ...]
-    camp.other_runs("ramp_10.3kpa_r1")           # the runs whose pooled diagnosis scores it
+    camp = Campaign.from_config(config, base=".")   # the workflow's config.yaml, already validated
+    camp.stems("ramp")                               # ['ramp_10.3kpa_r1', ...]
+    camp.other_runs("ramp_10.3kpa_r1")               # the runs whose pooled diagnosis scores it
+    print("\\n".join(camp.plan_lines()))             # what it makes, what it skips and why
 """
 from __future__ import annotations
 
 import os
+import re
 from dataclasses import dataclass, field
 
 from roboball.errors import ConfigError
-
-# The real logs' stems in the results (the authors' recordings, config section real_data).
-REAL_STEMS = {"steer_stand": "real_steer_stand", "shell_rock": "real_shell_rock"}
+from roboball.kinds import STANDS
 
 # One interactive Drake replay per experiment kind: the contact model it shows and the release
 # (rad: steer/drive stand angle, shell roll angle; the ramp starts from rest).
 REPLAYS = {"steer_stand": ("point", 0.8), "drive_stand": ("point", 0.6), "shell_rock": ("injected", -0.3),
            "ramp": ("hydroelastic", 0.0)}
+JOINT_OF_STAND = {"steer_stand": "steer", "drive_stand": "drive"}
+STAND_FIGURE = {"steer": 7, "drive": 8}          # the paper's figure of each joint's stand fits
+
+
+def campaign_id(name: str) -> str:
+    """A campaign's name as it appears in file names and wildcards: roboball_real."""
+    slug = re.sub(r"[^a-z0-9]+", "_", name.lower()).strip("_")
+    return slug or "campaign"
+
+
+def campaigns_of(config: dict) -> list[dict]:
+    """The run's campaigns: config `campaigns`, or the one folder of `campaign_dir` (make figures
+    RAW=DIR; named by `campaign_name`, else by its manifest, else by the folder)."""
+    if config.get("campaign_dir"):
+        raw = os.path.normpath(str(config["campaign_dir"]))
+        return [{"id": "", "name": str(config.get("campaign_name") or ""), "raw": raw,
+                 "diagnose_recordings": True, "fallback_name": os.path.basename(raw)}]
+    return [dict(c) for c in config["campaigns"]]
 
 
 @dataclass
 class Campaign:
-    """stem -> {"src", "kind", "pressure_kpa"} for every recording the workflow processes
-    (raw_data/MANIFEST.csv, plus the real logs when `real_on`)."""
+    """stem -> {"src", "kind", "pressure_kpa", "dataset", "steer_joint", ...} for every recording
+    the workflow processes, with the datasets (campaigns) they belong to."""
 
     recordings: dict
-    real_on: bool = False
+    datasets: dict = field(default_factory=dict)     # id -> {"name", "diagnose_recordings"}
     notes: list = field(default_factory=list)
 
     @classmethod
-    def from_config(cls, config: dict) -> "Campaign":
-        """The campaign of the workflow's config: the manifest of `raw_data` (checked by
-        roboball.ingest.manifest.read_manifest) and the real logs of `real_data`.  `enabled: auto` takes
-        them when their folder exists; `enabled: true` requires it (a one-line ConfigError)."""
-        from roboball.ingest.manifest import read_manifest
+    def from_config(cls, config: dict, base: str = ".") -> "Campaign":
+        """Every campaign of the config read through its manifest (roboball.ingest.manifest);
+        relative folders are taken from `base` (the workflow's folder).  A campaign marked
+        `optional` whose folder is missing is skipped with a note; two recordings of one name in
+        the run are refused in one line."""
+        from roboball.ingest.manifest import manifest_name, read_manifest
 
-        recordings = read_manifest(config["raw_data"])
-        real = config["real_data"]
-        on = real["enabled"] is True or (real["enabled"] == "auto" and os.path.isdir(real["path"]))
-        if real["enabled"] is True and not os.path.isdir(real["path"]):
-            raise ConfigError(f"real_data.path {real['path']}: folder not found "
-                              "(set real_data.enabled: auto or false)")
-        notes = []
-        if on:
-            for kind, stem in REAL_STEMS.items():
+        recordings: dict = {}
+        datasets: dict = {}
+        notes: list = []
+        for c in campaigns_of(config):
+            raw = _from(base, c["raw"])
+            if not os.path.isdir(raw):
+                if c.get("optional"):
+                    notes.append(f"skip  campaign '{c['name']}': folder {c['raw']} not found "
+                                 "(optional; see README, 'Your own recordings')")
+                    continue
+                raise ConfigError(f"campaign '{c['name'] or c['raw']}': folder {c['raw']} not found")
+            found = read_manifest(raw, _from(base, c["manifest"]) if c.get("manifest") else None)
+            name = c["name"] or manifest_name(found) or c.get("fallback_name") or "campaign"
+            cid = c["id"] or campaign_id(name)
+            if cid in datasets:
+                raise ConfigError(f"campaign '{name}': id {cid} is used by another campaign of the run")
+            for stem, r in found.items():
                 if stem in recordings:
-                    raise ConfigError(f"{config['raw_data']}/MANIFEST.csv: recording {stem}: the name of a real log "
-                                      f"({real['path']}); rename the file (their results would overwrite each other)")
-                recordings[stem] = {"src": os.path.join(real["path"], real[kind]), "kind": kind, "pressure_kpa": ""}
-            # the shell log's steer setting, which the log does not record (config's comment)
-            recordings[REAL_STEMS["shell_rock"]]["steer_joint"] = real.get("shell_rock_steer_joint", "locked")
-        else:
-            notes.append(f"roboball: real logs not found at {real['path']}: the real-data part of the pipeline "
-                         "is skipped (see README, 'Real recordings').")
-        return cls(recordings, on, notes)
+                    raise ConfigError(f"{r['where']}: {stem}: same name as {recordings[stem]['where']}; results are "
+                                      "named after the recording, so rename one of them (or give column name)")
+                recordings[stem] = {**r, "dataset": cid}
+            datasets[cid] = {"name": name, "diagnose_recordings": bool(c.get("diagnose_recordings", True))}
+        if not recordings:
+            raise ConfigError("no campaign to analyse: every campaign's folder is missing")
+        return cls(recordings, datasets, notes)
 
-    def stems(self, kind: str, real: bool = False) -> list:
-        """The campaign's (or, with `real`, the real logs') recordings of one kind, sorted."""
+    # ---- the recordings -------------------------------------------------------------------
+    def stems(self, kind: str, dataset: str | None = None) -> list:
+        """The run's (or one dataset's) recordings of one kind, sorted."""
         return sorted(s for s, r in self.recordings.items()
-                      if r["kind"] == kind and (s in REAL_STEMS.values()) == real)
+                      if r["kind"] == kind and (dataset is None or r["dataset"] == dataset))
+
+    def pressure(self, stem: str) -> float | None:
+        """The recording's pressure (kPa), None where it is unknown or does not matter."""
+        p = self.recordings[stem]["pressure_kpa"]
+        try:
+            return float(p)
+        except ValueError:
+            return None
+
+    def known_pressure(self, kind: str) -> list:
+        return [s for s in self.stems(kind) if self.pressure(s) is not None]
+
+    def shell_pressures(self) -> list:
+        return sorted({round(self.pressure(s), 6) for s in self.known_pressure("shell_rock")})
+
+    def has_regression(self) -> bool:
+        """zeta(p) and omega_n(p) need shell releases at two pressures at least."""
+        return len(self.shell_pressures()) >= 2
+
+    def dataset_of(self, kind: str) -> str | None:
+        """The first dataset (in the config's order) with recordings of `kind`."""
+        return next((d for d in self.datasets if self.stems(kind, d)), None)
+
+    def name(self, dataset: str | None) -> str:
+        return self.datasets[dataset]["name"] if dataset in self.datasets else ""
+
+    # ---- stand fits ------------------------------------------------------------------------
+    def stand_stems(self, dataset: str, joint: str) -> list:
+        """The stand runs of one joint of one dataset, fitted together."""
+        return self.stems(f"{joint}_stand", dataset)
+
+    def fits(self, friction: dict) -> list:
+        """(dataset, joint, law) of every friction fit: the config's laws of each joint that has
+        a stand recording in the dataset."""
+        return [(d, joint, law) for d in self.datasets for joint, law in friction_models(friction)
+                if self.stand_stems(d, joint)]
 
     # ---- ramp runs by pressure (the pooled diagnoses, issue 6) ------------------------------
     def pressure_group(self, stem: str) -> str:
@@ -80,6 +148,88 @@ class Campaign:
         out-of-sample effects; all runs at it (itself) when it is the only one."""
         same = self.runs_at(self.pressure_group(stem))
         return [s for s in same if s != stem] or same
+
+    def ramp_friction(self, friction: dict) -> dict:
+        """joint -> the Majd fit the ramp runs' model takes, for the joints of the ramp runs'
+        dataset that have a stand (the others run with Table I's values, configs/robot.yaml)."""
+        d = self.dataset_of("ramp")
+        return {j: f"results/friction/{d}/{j}_majd.json" for j in ("steer", "drive")
+                if (d, j, "majd") in self.fits(friction)}
+
+    # ---- the coupled steer test (Fig. S2) ----------------------------------------------------
+    def coupled_dataset(self) -> str | None:
+        return next((d for d in self.datasets if len(self.stems("steer_coupled", d)) >= 2), None)
+
+    def diagnosed_stems(self) -> list:
+        """The stand and shell recordings diagnosed one by one: those of the datasets whose
+        config asks for it (the virtual campaign's are its calibration data)."""
+        return [s for k in (*STANDS, "shell_rock") for s in self.stems(k)
+                if self.datasets[self.recordings[s]["dataset"]]["diagnose_recordings"]]
+
+    # ---- what the run makes and what it skips -------------------------------------------------
+    def plan_lines(self, friction: dict) -> list:
+        """One line per part of the paper's pipeline: `make  ...` or `skip  ...: reason`."""
+        return self.notes + plan_lines(self, friction)
+
+
+def _from(base: str, path: str) -> str:
+    return path if os.path.isabs(path) or base in ("", ".") else os.path.join(base, path)
+
+
+def plan_lines(camp: Campaign, friction: dict) -> list:
+    """What the run makes and skips (see Campaign.plan_lines); the targets in common.smk follow
+    the same tests."""
+    out = []
+
+    def say(ok: bool, what: str, why: str):
+        out.append(f"make  {what}" if ok else f"skip  {what}: {why}")
+
+    for d, info in camp.datasets.items():
+        n = {k: len(camp.stems(k, d)) for k in ("steer_stand", "drive_stand", "shell_rock", "ramp", "steer_coupled")}
+        out.append(f"campaign '{info['name']}' ({d}): " + ", ".join(f"{v} {k}" for k, v in n.items()))
+        for joint in ("steer", "drive"):
+            stands = camp.stand_stems(d, joint)
+            runs = f" ({len(stands)} runs fitted together)" if len(stands) > 1 else ""
+            say(bool(stands), f"Fig. {STAND_FIGURE[joint]} and Table I rows: {joint} friction of '{info['name']}'{runs}",
+                f"no {joint}_stand recording in '{info['name']}'")
+    shells = camp.stems("shell_rock")
+    say(bool(shells), f"shell decay tables ({len(shells)} recording{'s' if len(shells) != 1 else ''})",
+        "no shell_rock recording")
+    ps = camp.shell_pressures()
+    why = ("no shell_rock recording with a known pressure" if not ps else
+           f"shell releases at one pressure only ({ps[0]:g} kPa): decay table and diagnosis made, no regression")
+    reg = camp.has_regression()
+    say(reg, "zeta(p), omega_n(p) regression" + (f" over {len(ps)} pressures" if reg else "") + " and what needs it: "
+        "Figs. 10, 11, the hydroelastic calibration (Fig. S3), Fig. S1, the replays", why)
+    ramps = camp.stems("ramp")
+    if ramps:
+        d = camp.dataset_of("ramp")
+        missing = [j for j in ("steer", "drive") if (d, j, "majd") not in camp.fits(friction)]
+        say(True, f"ramp descents and their pooled diagnoses ({len(ramps)} runs at {len(camp.ramp_groups())} "
+            "pressures): Figs. 13, 14" + ("" if reg else ", point contact and the diagnosed model only (no shell "
+                                           "regression for the others)"), "")
+        for j in missing:
+            out.append(f"note  ramp runs: no {j}_stand Majd fit in '{camp.name(d)}': its {j} friction is Table I's "
+                       "(configs/robot.yaml), without posterior draws")
+    else:
+        say(False, "Figs. 13, 14 (ramp descents, PME)", "no ramp recording")
+    cd = camp.coupled_dataset()
+    if cd is None:
+        say(False, "Fig. S2 (coupled steer test)", "fewer than two steer_coupled recordings in one campaign")
+    elif (cd, "steer", "majd") not in camp.fits(friction):
+        say(False, "Fig. S2 (coupled steer test)", f"no steer_stand Majd fit in '{camp.name(cd)}' for its steer friction")
+    elif not reg and not camp.stems("shell_rock", cd):
+        say(False, "Fig. S2 (coupled steer test)", "no shell regression and no shell_rock recording in "
+            f"'{camp.name(cd)}' to take the shell laws from")
+    else:
+        say(True, f"Fig. S2 (coupled steer test, {len(camp.stems('steer_coupled', cd))} repeats of "
+            f"'{camp.name(cd)}')" + ("" if reg else ": shell laws held at its shell releases' zeta and omega_n "
+                                      "(no regression); the models that need the pressure are left out"), "")
+    diag = camp.diagnosed_stems()
+    say(bool(diag), f"diagnoses of {len(diag)} stand and shell recordings", "no campaign asks for them "
+        "(diagnose_recordings) or none has stand or shell recordings")
+    out.append("make  the uncertainty report")
+    return out
 
 
 def sweep_cases(factors) -> dict:
@@ -123,9 +273,13 @@ def shell_pressure_groups(recordings: dict, stems: list) -> dict:
     out: dict = {}
     for s in stems:
         p = recordings[s]["pressure_kpa"]
-        if p in ("", None) or float(p) != float(p):
+        try:
+            p = float(p)
+        except ValueError:
             continue                       # pressure unknown (a real log): nothing to calibrate at
-        out.setdefault(f"shell_{float(p):g}kpa", []).append(s)
+        if p != p:
+            continue
+        out.setdefault(f"shell_{p:g}kpa", []).append(s)
     return {g: sorted(v) for g, v in sorted(out.items(), key=lambda kv: float(kv[0][6:-3]))}
 
 

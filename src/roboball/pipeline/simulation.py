@@ -52,6 +52,10 @@ def shell_params(contact: str, p_kpa: float, regression: str, hydro_fit: str = "
     contact with the calibrated modulus and dissipation.  `kw` go to ShellParams."""
     from roboball.sim.spec import ShellParams
 
+    if contact == "point" and not regression:     # a campaign without a regression: point contact needs none
+        return contact, ShellParams(**kw)
+    if not regression:
+        raise RoboballError(f"contact {contact} needs the shell regression (--regression): zeta(p), omega_n(p)")
     zeta, omega = shell_at(regression, p_kpa)
     if contact == "hydro_tuned":
         modulus, dissipation = tuned_at(hydro_fit, p_kpa)

@@ -240,7 +240,9 @@ def _figures_section(figures: list) -> dict:
 
 def uncertainty_report(fits: list, comparisons: list, regression: str, pme_table: str, sweep_md: str,
                        figures: list, out_html: str, diagnoses: list = [], ramp_friction: list = []) -> None:  # noqa: B006
-    """Render the report from the pipeline's results (no simulation is rerun).
+    """Render the report from the pipeline's results (no simulation is rerun).  A campaign
+    without shell releases at several pressures or without ramp runs has no regression, sweep
+    or PME table (an empty `regression`, `sweep_md`, `pme_table`): those sections are left out.
 
     Args:
         ramp_friction: the fit JSONs whose posteriors the ramp simulations draw from (their
@@ -249,11 +251,15 @@ def uncertainty_report(fits: list, comparisons: list, regression: str, pme_table
         RoboballError: when the page would be over 2 MiB as a data URI (the Snakemake report).
     """
     flags: list = []
-    sections = [_friction_section(fits, comparisons, flags),
-                {"id": "shell", "title": "Shell regressions (Fig. 10)", "body": table(pd.read_csv(regression)), "subs": []},
-                {"id": "sweep", "title": "Hydroelastic sweep",
-                 "body": markdown.to_html(Path(sweep_md).read_text(encoding="utf-8"), shift=2), "subs": []},
-                _pme_section(pme_table, ramp_friction, flags)]
+    sections = [_friction_section(fits, comparisons, flags)] if fits else []
+    if regression:
+        sections.append({"id": "shell", "title": "Shell regressions (Fig. 10)",
+                         "body": table(pd.read_csv(regression)), "subs": []})
+    if sweep_md:
+        sections.append({"id": "sweep", "title": "Hydroelastic sweep",
+                         "body": markdown.to_html(Path(sweep_md).read_text(encoding="utf-8"), shift=2), "subs": []})
+    if pme_table:
+        sections.append(_pme_section(pme_table, ramp_friction, flags))
     if diagnoses:
         sections.append(_diagnosis_section(diagnoses))
     sections.append(_figures_section(figures))

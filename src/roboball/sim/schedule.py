@@ -170,6 +170,12 @@ class ShellLaws:
             raise RoboballError(f"{path}: row zeta_a: value {values['zeta_a']!r} must be > 0")
         return cls(*(values[k] for k in rows))
 
+    @property
+    def pressure_free(self) -> bool:
+        """Laws that do not depend on pressure (a campaign's shell releases at one pressure or
+        at none logged: roboball.pipeline.ident.shell_constant_laws)."""
+        return self.zeta_b == 0.0 and self.omega_n_d == 0.0
+
     def zeta(self, p_kpa, m=None):
         from roboball.physics.mathns import NP
         return shell_laws.zeta_of_p(p_kpa, self.zeta_a, self.zeta_b, m=m or NP)

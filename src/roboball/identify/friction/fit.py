@@ -124,36 +124,54 @@ def _refine(problem: FrictionProblem, lsq: dict, seed: int) -> dict:
         problem.start_point = saved
 
 
-def fit(recording: str | os.PathLike, releases: str | os.PathLike, joint: str, law: str,
+def fit(recording, releases, joint: str, law: str,
         prior: Mapping | str | os.PathLike | None, chain: str | os.PathLike, *, walkers: int = 32,
         autocorr_multiple: float = 50.0, max_steps: int = 20000, seed: int = 0,
         dt: float | None = None, sample_angles: bool = True, stale: str = "refuse",
         code: str | None = None) -> tuple[dict, pd.DataFrame]:
     """Pipeline entry: fit `law` on `joint` to a stand recording (CSV + sidecar) and its
-    releases JSON (``{"releases": [{"t_release_s", "t_end_s", "y_release", ...}]}``); the
-    other arguments as in :func:`fit_segments`."""
+    releases JSON (``{"releases": [{"t_release_s", "t_end_s", "y_release", ...}]}``), or to
+    several runs of one stand together (lists of both, in the same order: their releases are
+    the fit's segments, one after another); the other arguments as in :func:`fit_segments`."""
     from roboball.ingest.recording import read_recording
 
     if joint not in KIND_OF_JOINT:
         raise RoboballError(f"--joint: unknown joint '{joint}' (steer or drive)")
-    rec = read_recording(recording)
+    recordings = [recording] if isinstance(recording, (str, os.PathLike)) else list(recording)
+    release_files = [releases] if isinstance(releases, (str, os.PathLike)) else list(releases)
+    if len(recordings) != len(release_files) or not recordings:
+        raise RoboballError(f"--recording / --releases: {len(recordings)} recordings and {len(release_files)} "
+                            "releases files; give one releases file per recording")
     kind = KIND_OF_JOINT[joint]
-    if rec.kind != kind:
-        raise RoboballError(f"{rec.label}: kind is '{rec.kind}', but a {joint}-joint friction fit needs a "
-                            f"{kind} recording")
-    try:
-        with open(releases, encoding="utf-8") as fh:
-            rels = json.load(fh)["releases"]
-    except FileNotFoundError:
-        raise RoboballError(f"{releases}: file not found")
-    except (json.JSONDecodeError, KeyError, TypeError) as exc:
-        raise RoboballError(f"{releases}: not a releases JSON with a 'releases' list ({exc})")
-    t, y = rec.time, rec.main_values()
-    segs = segments_from_arrays([(t, y, r) for r in rels], source=str(releases))
+    parts, labels = [], []
+    for rec_path, rel_path in zip(recordings, release_files):
+        rec = read_recording(rec_path)
+        if rec.kind != kind:
+            raise RoboballError(f"{rec.label}: kind is '{rec.kind}', but a {joint}-joint friction fit needs a "
+                                f"{kind} recording")
+        parts += [(rec.time, rec.main_values(), r) for r in _release_list(rel_path)]
+        labels.append(rec.label)
+    source = " + ".join(str(r) for r in release_files)
+    segs = segments_from_arrays(parts, source=source)
     res, samples = fit_segments(kind, law, segs, chain, prior, seed=seed, walkers=walkers,
                                 autocorr_multiple=autocorr_multiple, max_steps=max_steps, dt=dt,
-                                source=rec.label, sample_angles=sample_angles, stale=stale, code=code)
+                                source=labels[0] if len(labels) == 1 else " + ".join(labels),
+                                sample_angles=sample_angles, stale=stale, code=code)
+    if len(labels) > 1:
+        res["recording"] = " + ".join(Path(p).stem for p in recordings)
+    releases = source
     res["releases_file"] = str(releases)
     return res, samples
+
+
+def _release_list(path) -> list:
+    """The releases of a releases JSON; a one-line error for a missing or malformed file."""
+    try:
+        with open(path, encoding="utf-8") as fh:
+            return json.load(fh)["releases"]
+    except FileNotFoundError:
+        raise RoboballError(f"{path}: file not found")
+    except (json.JSONDecodeError, KeyError, TypeError) as exc:
+        raise RoboballError(f"{path}: not a releases JSON with a 'releases' list ({exc})")
 
 

@@ -1,0 +1,153 @@
+"""A researcher's own campaign through the whole DAG (issue 45): any file names, any subset of the
+recording kinds, `make figures RAW=DIR OUT=DIR2`.
+
+Fast: the virtual campaign with each kind removed in turn, and with its shell releases at one
+pressure, is planned by Snakemake (a dry run) with only what depends on the missing kind left
+out, saying why.  Slow (CI): the same partial campaigns, reduced to two pressures and a short
+configuration, run to the end; and the five public real logs, under their own file names with a
+manifest written by `roboball manifest`, go through `make figures RAW=... OUT=...`.
+"""
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from conftest import REAL_DATA, REPO
+
+SNAKEMAKE = str(Path(sys.executable).with_name("snakemake"))
+ROBOBALL = str(Path(sys.executable).with_name("roboball"))
+
+
+def partial(dest: Path, drop=(), pressures=None, ramps_per_pressure=None) -> Path:
+    """The virtual campaign (raw_data/, symlinked) without the kinds in `drop`, its shell and
+    ramp recordings limited to `pressures` (kPa) and to `ramps_per_pressure` runs each."""
+    dest.mkdir(parents=True)
+    lines = (REPO / "raw_data" / "MANIFEST.csv").read_text().splitlines()
+    keep = [lines[0]]
+    for line in lines[1:]:
+        file, kind, p = line.split(",")[:3]
+        if kind in drop or (pressures and kind in ("shell_rock", "ramp") and float(p) not in pressures):
+            continue
+        if ramps_per_pressure and kind == "ramp" and int(line.split(",")[3]) > ramps_per_pressure:
+            continue
+        keep.append(line)
+        for ext in (".csv", ".json"):
+            src = REPO / "raw_data" / Path(file).with_suffix(ext)
+            (dest / src.parent.name).mkdir(exist_ok=True)
+            os.symlink(src, dest / src.parent.name / src.name)
+    (dest / "MANIFEST.csv").write_text("\n".join(keep) + "\n")
+    return dest
+
+
+def dry_run(raw: Path, work: Path) -> tuple[dict, str]:
+    """(rule -> jobs planned, Snakemake's output) of the DAG on campaign `raw`, run in `work`."""
+    work.mkdir(parents=True, exist_ok=True)
+    r = subprocess.run([SNAKEMAKE, "-s", str(REPO / "Snakefile"), "-n", "--quiet", "rules", "--cores", "2",
+                        "--config", f"campaign_dir={raw}", "figures_dir=figures"],
+                       cwd=work, capture_output=True, text=True, timeout=300)
+    out = r.stdout + r.stderr
+    assert r.returncode == 0, out[-3000:]
+    jobs = {}
+    for line in out.splitlines():
+        m = re.match(r"^\s*([A-Za-z_0-9]+)\s+(\d+)\s*$", line)
+        if m and m.group(1) != "total":
+            jobs[m.group(1)] = int(m.group(2))
+    return jobs, out
+
+
+SHELL_RULES = ("shell_regression", "shell_sim", "sweep_sim", "fig10", "fig11", "hydro_grid", "hydro_fit",
+               "figS3_hydro_calibration", "figS1_deflating_ramp", "replay")
+RAMP_RULES = ("ramp_sim", "diagnose_ramp_pressure", "diagnose_ramp_heldout", "ramp_diagnosed", "fig13_14")
+CASES = {  # case -> (manifest filter, rules that must not run, rules that must, a line of the plan)
+    "no steer stand": ({"drop": ("steer_stand",)}, ("friction_comparison",), ("ramp_sim", "fig10", "table1"),
+                       "skip  Fig. 7 and Table I rows: steer friction of 'c': no steer_stand recording in 'c'"),
+    "no drive stand": ({"drop": ("drive_stand",)}, (), ("friction_comparison", "ramp_sim", "fig13_14"),
+                       "note  ramp runs: no drive_stand Majd fit in 'c': its drive friction is Table I's"),
+    "no shell releases": ({"drop": ("shell_rock",)}, SHELL_RULES + ("decay",), ("fig13_14", "ramp_diagnosed"),
+                          "skip  zeta(p), omega_n(p) regression and what needs it: Figs. 10, 11, the hydroelastic "
+                          "calibration (Fig. S3), Fig. S1, the replays: no shell_rock recording with a known pressure"),
+    "no ramp runs": ({"drop": ("ramp",)}, RAMP_RULES, SHELL_RULES, "skip  Figs. 13, 14 (ramp descents, PME): no ramp "
+                     "recording"),
+    "one shell pressure": ({"pressures": (13.8,)}, SHELL_RULES, ("decay", "fig13_14", "diagnose"),
+                           "shell releases at one pressure only (13.8 kPa): decay table and diagnosis made, no regression"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_a_partial_campaign_plans_everything_that_does_not_need_what_is_missing(tmp_path, case):
+    filt, absent, present, line = CASES[case]
+    jobs, out = dry_run(partial(tmp_path / "c", **filt), tmp_path / "run")
+    assert line in out, out[-3000:]
+    assert not [r for r in absent if jobs.get(r)], jobs
+    assert all(jobs.get(r) for r in present), jobs
+    assert jobs["uncertainty_report"] == 1 and jobs["table2"] == 1
+    if case == "no shell releases":          # the point contact only: the others need zeta(p), omega_n(p)
+        assert jobs["ramp_sim"] == jobs["ramp_diagnosed"] == 15
+    if case == "no steer stand":
+        assert jobs["friction_fit"] == 1 and jobs["fig_stand"] == 1      # the drive stand's Majd fit, Fig. 8
+    assert "virtual test bed" not in out
+
+
+# ---- slow: to the end ----------------------------------------------------------------------------
+def make_figures(raw: Path, out: Path, *extra) -> subprocess.CompletedProcess:
+    venv = Path(sys.executable).parent.parent
+    r = subprocess.run(["make", "-s", "-C", str(REPO), "figures", f"VENV={venv}", "STAMP=", f"RAW={raw}",
+                        f"OUT={out}", *extra], capture_output=True, text=True, timeout=3000)
+    assert r.returncode == 0, f"{r.stdout[-3000:]}\n{r.stderr[-5000:]}"
+    return r
+
+
+def short_config(out: Path) -> str:
+    return f"SNAKEMAKE_TARGETS=--configfile {REPO / 'configs' / 'config.yaml'} {REPO / 'tests/data/config_partial.yaml'}"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_a_partial_campaign_runs_to_the_end(tmp_path, case):
+    filt = {"pressures": (6.9, 20.7), "ramps_per_pressure": 1, **CASES[case][0]}
+    raw = partial(tmp_path / "c", **filt)
+    out = tmp_path / "out"
+    make_figures(raw, out, short_config(out))
+    figs = {p.name for p in (out / "figures").glob("*.png")}
+    assert "uncertainty_report.html" in {p.name for p in (out / "figures").iterdir()}
+    assert ("fig13_ramp_pme.png" in figs) == ("ramp" not in filt.get("drop", ()))
+    assert ("fig10_shell_dynamics.png" in figs) == (case not in ("no shell releases", "one shell pressure"))
+    assert ("fig8_c_drive_fits.png" in figs) == (case != "no drive stand")
+    assert not (REPO / "runs").exists() or not any((REPO / "runs").glob("c*"))
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not REAL_DATA.is_dir(), reason="real logs not available (../shared/data/roboball_real)")
+def test_the_public_real_logs_are_a_campaign_like_any_other(tmp_path):
+    raw = tmp_path / "roboball_real"
+    raw.mkdir()
+    for p in sorted(REAL_DATA.glob("*.csv")):
+        shutil.copy2(p, raw / p.name)
+    subprocess.run([ROBOBALL, "manifest", str(raw), "--pressure-kpa", "unknown", "--steer-joint", "unknown"],
+                   check=True, capture_output=True, text=True)
+    out = tmp_path / "out"
+    r = make_figures(raw, out)
+    plan = r.stdout + r.stderr
+    for line in ("skip  Fig. 8 and Table I rows: drive friction of 'roboball_real': no drive_stand recording",
+                 "skip  Figs. 13, 14 (ramp descents, PME): no ramp recording",
+                 "skip  zeta(p), omega_n(p) regression and what needs it"):
+        assert line in plan, plan[-3000:]
+    figs = out / "figures"
+    for name in ("table1_friction.md", "fig7_roboball_real_steer_fits.png", "figS2_steer_coupled.png",
+                 "table_coupled_rms.md", "uncertainty_report.html", "fig5_friction_laws.png"):
+        assert (figs / name).stat().st_size > 1000, name
+    assert "steering_static_stand_response" in (figs / "table1_friction.md").read_text()
+    decay = (out / "results" / "decay" / "dynamic_data.csv").read_text().splitlines()
+    assert len(decay) == 2                                    # the shell log's one release
+    diag = json.loads((out / "results" / "diagnose" / "dynamic_data" / "diagnosis.json").read_text())
+    assert diag["verdict"]
+    table = (figs / "table_coupled_rms.md").read_text()
+    assert "Pressure (not logged): not fitted" in table and "| injected |" in table and "| diagnosed |" in table
+    assert "virtual test bed" not in (figs / "uncertainty_report.html").read_text()
