@@ -43,10 +43,12 @@ ifeq ($(strip $(RAW)),)
 	$(BIN)/python -m roboball.pipeline.runlock $(BIN)/snakemake $(SNAKEMAKE_TARGETS) $(SMK_FLAGS)
 else
 	@test -d "$(RAW)" || { echo "error: RAW=$(RAW): not a folder of recordings"; exit 2; }
-	mkdir -p "$(RUN_DIR)"
+	@# a run refused before any job (a bad manifest) leaves no output folder it created behind
+	@new=; test -d "$(RUN_DIR)" || new=1; mkdir -p "$(RUN_DIR)"; \
 	cd "$(RUN_DIR)" && $(abspath $(BIN))/python -m roboball.pipeline.runlock $(abspath $(BIN))/snakemake \
 	  -s $(CURDIR)/Snakefile $(SNAKEMAKE_TARGETS) $(SMK_FLAGS) \
-	  --config campaign_dir="$(abspath $(RAW))" figures_dir=figures $(if $(NAME),campaign_name="$(NAME)")
+	  --config campaign_dir="$(abspath $(RAW))" figures_dir=figures $(if $(NAME),campaign_name="$(NAME)") \
+	|| { rc=$$?; if [ -n "$$new" ] && [ ! -d "$(RUN_DIR)/results" ]; then rm -rf "$(RUN_DIR)"; fi; exit $$rc; }
 	@echo "results and figures of $(RAW): $(RUN_DIR)/figures, $(RUN_DIR)/results"
 endif
 

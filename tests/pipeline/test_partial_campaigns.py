@@ -151,3 +151,15 @@ def test_the_public_real_logs_are_a_campaign_like_any_other(tmp_path):
     table = (figs / "table_coupled_rms.md").read_text()
     assert "Pressure (not logged): not fitted" in table and "| injected |" in table and "| diagnosed |" in table
     assert "virtual test bed" not in (figs / "uncertainty_report.html").read_text()
+
+
+def test_a_bad_campaign_is_refused_in_one_line_before_any_job_and_leaves_nothing(tmp_path):
+    raw = partial(tmp_path / "c", drop=("ramp", "shell_rock", "drive_stand"))
+    (raw / "MANIFEST.csv").write_text((raw / "MANIFEST.csv").read_text() + "steer_stand/gone.csv,steer_stand,\n")
+    venv = Path(sys.executable).parent.parent
+    out = tmp_path / "out"
+    r = subprocess.run(["make", "-s", "-C", str(REPO), "figures", f"VENV={venv}", "STAMP=", f"RAW={raw}", f"OUT={out}"],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode != 0
+    assert f"{raw / 'MANIFEST.csv'}: line 3: steer_stand/gone.csv: file not found in {raw}" in r.stdout + r.stderr
+    assert not out.exists()

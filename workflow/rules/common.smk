@@ -129,6 +129,8 @@ if COUPLED_SET and ((COUPLED_SET, "steer", "majd") not in FITS
                     or not (REGRESSION or stems("shell_rock", COUPLED_SET))):
     COUPLED_SET = None
 COUPLED = stems("steer_coupled", COUPLED_SET) if COUPLED_SET else []
+# a user's campaign (make figures RAW=DIR) is named in Fig. S2's title; the committed run's keep theirs
+COUPLED_TITLE = CAMPAIGN.name(COUPLED_SET) if config.get("campaign_dir") and COUPLED else ""
 COUPLED_LAWS = (REGRESSION_CSV if REGRESSION else f"results/identify/{COUPLED_SET}_shell_laws.csv") if COUPLED else ""
 
 PF = config.get("figures_dir", "paper_figures")
@@ -218,9 +220,11 @@ def final_targets():
 def pressure_label(p):
     """A pressure as the Snakemake report's label: zero-padded ("06.9"), because the report sorts
     labels as text, which would put 20.7 before 6.9."""
-    if p in (None, "") or p != p:            # the real logs' (unknown) and the stands' (NaN: no shell)
+    try:
+        p = float(p)
+    except (TypeError, ValueError):         # "" (a stand: no shell) or "unknown" (a real log's)
         return "-"
-    return f"{float(p):04.1f}"
+    return "-" if p != p else f"{p:04.1f}"
 
 
 def qc_labels(wildcards):

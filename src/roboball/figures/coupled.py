@@ -21,8 +21,14 @@ def label(name: str) -> str:
     return model(name).label if name in MODEL_NAMES else LABELS.get(name, name)
 
 
-def plot(traces: pd.DataFrame, table: pd.DataFrame, out_png: str) -> None:
-    """Two rows (pipe angle, steer angle) by one column per repeat; PNG + PDF."""
+_WORDS = {2: "two", 3: "three", 4: "four", 5: "five"}
+
+
+def plot(traces: pd.DataFrame, table: pd.DataFrame, out_png: str, campaign: str = "",
+         pressure_free: bool = False) -> None:
+    """Two rows (pipe angle, steer angle) by one column per repeat; PNG + PDF.  `campaign` names
+    where the repeats come from in the title; `pressure_free`: the shell laws did not depend on
+    pressure, so no pressure was fitted."""
     from roboball.figures.style import plt, save
 
     repeats = list(dict.fromkeys(traces.repeat))
@@ -46,6 +52,10 @@ def plot(traces: pd.DataFrame, table: pd.DataFrame, out_png: str) -> None:
         axes[0, j].set_title(f"repeat {rep.rsplit('_', 1)[-1]}", fontsize=10)
     handles, labels = axes[0, 0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="outside lower center", ncol=4, fontsize=8)
-    fig.suptitle("Fig. S2: coupled steer test, three real repeats against every shell model "
-                 "(pressure models at each held-out repeat's fold pressure)", fontsize=10)
+    n = traces["repeat"].nunique()
+    where = f" of {campaign}" if campaign else ""
+    how = ("shell laws held at the campaign's shell releases; pressure not fitted" if pressure_free
+           else "pressure models at each held-out repeat's fold pressure")
+    fig.suptitle(f"Fig. S2: coupled steer test, {_WORDS.get(n, n)} real repeats{where} against every shell model "
+                 f"({how})", fontsize=10)
     save(fig, out_png)

@@ -151,10 +151,12 @@ def table_markdown(table: pd.DataFrame, summary: dict) -> str:
 
 
 def steer_coupled(recordings: list, regression: str, friction_steer: str, out_json: str, out_csv: str,
-                  out_png: str, table_csv: str, table_md: str, nm_evals: int = 30, hydro_fit: str = "") -> None:
+                  out_png: str, table_csv: str, table_md: str, nm_evals: int = 30, hydro_fit: str = "",
+                  campaign: str = "") -> None:
     """Fig. S2, its table (CSV + Markdown), the traces (CSV) and the summary (JSON) of the
     coupled steer test (see the module docstring); with `hydro_fit` (the hydroelastic
-    calibration's table) the calibrated shell runs too."""
+    calibration's table) the calibrated shell runs too; `campaign` names the repeats' campaign in
+    the figure's title."""
     from roboball.diagnose.coupled import fit_authors_objective, fit_pressure, read_repeats
     from roboball.diagnose.coupled_effects import held_out
     from roboball.figures.coupled import plot
@@ -187,7 +189,7 @@ def steer_coupled(recordings: list, regression: str, friction_steer: str, out_js
         "diagnosed_beats_paper_models": beats_paper_models(table),
         "friction_steer": friction,
     }
-    plot(traces, table, out_png)
+    plot(traces, table, out_png, campaign=campaign, pressure_free=laws.pressure_free)
     write_csv_atomic(table, table_csv)
     write_text_atomic(table_md, table_markdown(table, summary))
     write_csv_atomic(traces, out_csv)
