@@ -16,6 +16,7 @@ import pytest
 from roboball.design import design
 from roboball.design.experiments import grid, moving
 from roboball.design.inputs import read_source
+from roboball.design.rank import same_experiment
 from roboball.errors import RoboballError
 from roboball.ingest.recording import write_recording
 from roboball.reduced.stand import StandModel
@@ -86,6 +87,9 @@ def test_large_releases_separate_inertia_from_stiffness(tmp_path):
     assert abs(user["release_from_rest_rad"][0] - RELEASE) < 0.051
     assert best["separation"] > 3 * user["separation"]
     assert "sin" in js["choices"][0]["why"]
+    md = (tmp_path / "out" / "design.md").read_text()
+    # the repeat is named apart only when it is another experiment than the best
+    assert "A repeat of the user's release" in md and "recorded again" not in md
     for f in ("design.json", "design.md", "design.png"):
         assert (tmp_path / "out" / f).stat().st_size > 0
     stored = json.loads((tmp_path / "out" / "design.json").read_text())
@@ -146,3 +150,11 @@ def test_cli_refuses_a_folder_without_a_diagnosis(tmp_path):
     assert r.returncode != 0
     assert r.stderr.strip().count("\n") == 0 and "diagnosis.json: not found" in r.stderr
     assert not (tmp_path / "design").exists()
+
+
+def test_the_same_experiment_is_recognised():
+    a = {"release_rad": [-1.236], "settle_s": 7.1, "steer_joint": "locked"}
+    assert same_experiment(a, dict(a))
+    assert not same_experiment(a, dict(a, settle_s=14.2))
+    assert not same_experiment(a, dict(a, release_rad=[-1.136]))
+    assert not same_experiment(a, dict(a, steer_joint="free"))

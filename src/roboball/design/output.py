@@ -8,6 +8,7 @@ import math
 import numpy as np
 
 from roboball.atomic import output_folder, savefig_atomic, write_json_atomic, write_text_atomic
+from roboball.design.rank import same_experiment
 
 OUTPUT_FILES = ("design.json", "design.md", "design.png")
 
@@ -57,8 +58,11 @@ def markdown(js: dict) -> str:
         if single and single is not best:
             lines += [f"Best single release of the user's length: {_settings(single)}: separation "
                       f"{single['separation']:.3g}.", ""]
-        if c.get("user_like"):
-            u = c["user_like"]
+        u = c.get("user_like")
+        if u and same_experiment(u, best):
+            lines += ["This is the user's own first release, recorded again: of the releases the rig allows, the "
+                      "one where the candidates part most.", ""]
+        elif u:
             lines += [f"A repeat of the user's release ({_settings(u)}): separation {u['separation']:.3g}.", ""]
         lines += [f"Why: {c['why']}", ""]
         if not c["settled"]:
@@ -86,7 +90,7 @@ def _figure(src, js: dict, grids: dict, path) -> str:
         plt.close(fig)
         return path.name
     ncol = max(len(best["release_rad"]) for _, (_, best) in rows)
-    fig, axes = plt.subplots(2 * len(rows), ncol, figsize=(6.5 * ncol, 6.2 * len(rows)), squeeze=False,
+    fig, axes = plt.subplots(2 * len(rows), ncol, figsize=(6.5 * ncol, 7.4 * len(rows)), squeeze=False,
                              gridspec_kw={"height_ratios": [3, 2] * len(rows)})
     for r, (c, (g, best)) in enumerate(rows):
         for j in range(ncol):
@@ -132,7 +136,8 @@ def _panel(top, bottom, src, c: dict, g, best: dict, j: int) -> None:
     top.legend(fontsize=8, loc="upper right", title="candidate (band: 2 sd of parameter draws)", title_fontsize=7)
     bottom.set_xlabel("time since release (s)")
     bottom.set_ylabel("difference (rad)")
-    bottom.legend(fontsize=8, loc="upper left")
+    # below the panel, not over it: the differences fill the panel's whole height
+    bottom.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.3), ncol=2, frameon=False)
     for ax in (top, bottom):
         ax.grid(alpha=0.3)
 

@@ -59,6 +59,11 @@ def scores(g: Grid, noise: float, window_s: float) -> Scores:
     return Scores(gap, sq, ns, durations, pair)
 
 
+def same_experiment(a: dict, b: dict) -> bool:
+    """Whether two ranked experiments are the same recording (releases, settle, steer clamp)."""
+    return all(a.get(k) == b.get(k) for k in ("release_rad", "settle_s", "steer_joint"))
+
+
 def experiments(src, choice, g: Grid, rest: float) -> list:
     """The ranked experiments of `choice` on grid `g`: one release or two in one recording, each
     settling the user's window or longer, feasible ones only; best (largest G) first."""

@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 
+from roboball.design.rank import same_experiment
 from roboball.reduced.models import model_for
 
 
@@ -15,7 +16,7 @@ def why(src, choice, best: dict, user: dict | None) -> str:
     at = ", ".join(f"{x:+.2f}" for x in best["release_from_rest_rad"])
     text = (f"released at {at} rad from rest, {a} and {b} differ by {best['rms_difference_rad']:.3g} rad RMS "
             f"({best['separation']:.3g} noise levels with the parameters' uncertainty)")
-    if user is not None:
+    if user is not None and not same_experiment(user, best):
         text += (f", where a repeat of the user's release ({user['release_from_rest_rad'][0]:+.2f} rad) separates them by "
                  f"{user['separation']:.3g}")
     physics = _physics(src, choice, best)
