@@ -25,10 +25,11 @@ ALLOWED = {
     "reduced": LEAVES | {"sim"},
     "identify": LEAVES | {"checks", "ingest", "reduced"},
     "diagnose": LEAVES | {"ingest", "sim", "reduced", "identify"},
+    "design": LEAVES | {"ingest", "sim", "reduced", "identify", "diagnose"},
     "figures": LEAVES | {"ingest", "sim", "identify"},
     "report": LEAVES | {"identify"},
     "pipeline": LEAVES | {"checks", "ingest", "sim", "reduced", "identify", "diagnose", "figures", "report"},
-    "cli": LEAVES | {"checks", "ingest", "sim", "reduced", "identify", "diagnose", "figures", "report",
+    "cli": LEAVES | {"checks", "ingest", "sim", "reduced", "identify", "diagnose", "design", "figures", "report",
                      "pipeline"},
     "testbed": LEAVES | {"ingest", "sim"},
 }

@@ -231,7 +231,8 @@ def register_command(fn):
 
 def _load_plugins():
     import importlib
-    for mod in ("roboball.cli.diagnose", "roboball.cli.stage", "roboball.cli.report", "roboball.cli.manifest"):
+    for mod in ("roboball.cli.diagnose", "roboball.cli.design", "roboball.cli.stage", "roboball.cli.report",
+                "roboball.cli.manifest"):
         try:
             importlib.import_module(mod)
         except ModuleNotFoundError as exc:

@@ -105,7 +105,9 @@ def _alternatives(sel, final: Scored, close: list, base: Scored) -> dict:
         out.setdefault(e, []).append({
             "effect": u, "parameters": {p: alt.values[f"{u}.{p}"] for p in names},
             "ci95": {p: list(ci[f"{u}.{p}"]) for p in names}, "rmse_heldout": alt.cv_rmse,
-            "rmse": alt.rmse, "delta_bic": alt.reordered(u).bic - bic_on(ref, alt)})
+            "rmse": alt.rmse, "delta_bic": alt.reordered(u).bic - bic_on(ref, alt),
+            # the whole model F - e + u as fitted (details.json): `roboball design` simulates it
+            "values": dict(alt.values), "ci95_all": {k: list(v) for k, v in ci.items()}})
     for alts in out.values():
         alts.sort(key=lambda a: a["rmse_heldout"])
     return out

@@ -36,7 +36,9 @@ def either_steer_setting(recs, prep, settings, log, steer_friction: dict | None)
                         f"locked and with the pendulum free ({said}); reported: {chosen}, "
                         + ("its held-out RMS more than " if chosen == "free" else "the free one's held-out RMS not ")
                         + f"{gain:.0%} below the other's")
-    d.steer_settings = {k: {"effects": list(runs[k].chosen), "rmse_heldout": cv[k]} for k in runs}
+    # each setting's whole fitted model and intervals, so `roboball design` can simulate both
+    d.steer_settings = {k: {"effects": list(runs[k].chosen), "rmse_heldout": cv[k], "values": runs[k].final.values,
+                            "ci95": {p: list(v) for p, v in runs[k].ci95.items()}} for k in runs}
     return d
 
 

@@ -1,0 +1,159 @@
+"""Write a design: design.json (the ranked experiments and each choice's verdict), design.md (a
+short readable account) and design.png (the best experiment's predicted recordings, one curve
+per candidate, over the log's noise band)."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from roboball.atomic import output_folder, savefig_atomic, write_json_atomic, write_text_atomic
+from roboball.design.rank import same_experiment
+
+OUTPUT_FILES = ("design.json", "design.md", "design.png")
+
+
+def write(src, js: dict, grids: dict, out_dir) -> None:
+    out = output_folder(out_dir, files=OUTPUT_FILES)
+    figure = _figure(src, js, grids, out / "design.png")
+    js["figure"] = figure
+    write_json_atomic(out / "design.json", _clean(js))
+    write_text_atomic(out / "design.md", markdown(js))
+
+
+def _settings(r: dict) -> str:
+    rel = ", ".join(f"{x:+.2f}" for x in r["release_from_rest_rad"])
+    abs_ = ", ".join(f"{x:+.3f}" for x in r["release_rad"])
+    text = f"release{'s' if len(r['release_rad']) > 1 else ''} at {rel} rad from rest ({abs_} rad as recorded)"
+    text += f", each left {r['settle_s']:.1f} s to settle ({r['recording_s']:.1f} s of recording)"
+    if r.get("steer_joint"):
+        text += f", steer joint {r['steer_joint']}"
+    return text
+
+
+def markdown(js: dict) -> str:
+    lines = [f"# Which recording would decide: {js['recording']}", "",
+             f"Kind `{js['kind']}`; the log's noise {js['noise_rad']:.3g} rad, the diagnosed model's residual on it "
+             f"{js['residual_rad']:.3g} rad. An experiment settles a choice when its candidates' predicted recordings "
+             f"differ by at least {js['settles_at_separation']:g} noise levels (RMS, the parameters' uncertainty "
+             "included; the diagnosis's own materiality).", ""]
+    if not js["choices"]:
+        lines += ["The diagnosis left no choice undecided: no alternatives, a recorded steer setting, every "
+                  "parameter pinned. Nothing to design.", ""]
+    for c in js["choices"]:
+        lines += [f"## {c['choice']}", ""]
+        for cand in c["candidates"]:
+            mech = f": {cand['mechanism']}" if cand.get("mechanism") else ""
+            lines.append(f"- `{cand['label']}`{mech}")
+        lines.append("")
+        best = c["best"]
+        if best is None:
+            lines += ["No feasible experiment.", ""]
+            continue
+        verdict = "settles it" if c["settled"] else "does not settle it"
+        lines += [f"**Best experiment** ({verdict}): {_settings(best)}: separation {best['separation']:.3g} noise levels "
+                  f"(fixed parameters {best['separation_fixed_params']:.3g}; {best['separation_vs_residual']:.2g} times "
+                  f"the diagnosed model's residual), expected chi^2 gap {best['expected_chi2_gap']:.4g}.", ""]
+        single = c.get("best_single_release")
+        if single and single is not best:
+            lines += [f"Best single release of the user's length: {_settings(single)}: separation "
+                      f"{single['separation']:.3g}.", ""]
+        u = c.get("user_like")
+        if u and same_experiment(u, best):
+            lines += ["This is the user's own first release, recorded again: of the releases the rig allows, the "
+                      "one where the candidates part most.", ""]
+        elif u:
+            lines += [f"A repeat of the user's release ({_settings(u)}): separation {u['separation']:.3g}.", ""]
+        lines += [f"Why: {c['why']}", ""]
+        if not c["settled"]:
+            lines += [f"No feasible experiment separates them. What would: {c['sensor']}.", ""]
+        if c.get("refit"):
+            lines += [f"Refitted: {c['refit']}", ""]
+    lines += [f"The figure `{js.get('figure', 'design.png')}` shows the best experiment's predicted recordings; "
+              f"`design.json` ranks {len(js['experiments'])} experiments. Designed in {js['time_s']:.1f} s.", ""]
+    return "\n".join(lines)
+
+
+def _figure(src, js: dict, grids: dict, path) -> str:
+    """The best experiment of each choice (a row each): its predicted recordings, one curve per
+    candidate, and their differences from the first candidate over the noise band."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = [(c, grids[c["choice"]]) for c in js["choices"] if c["choice"] in grids]
+    if not rows:
+        fig, ax = plt.subplots(figsize=(7, 2))
+        ax.text(0.5, 0.5, "no undecided choice: nothing to design", ha="center", va="center")
+        ax.axis("off")
+        savefig_atomic(fig, path, dpi=110)
+        plt.close(fig)
+        return path.name
+    ncol = max(len(best["release_rad"]) for _, (_, best) in rows)
+    fig, axes = plt.subplots(2 * len(rows), ncol, figsize=(6.5 * ncol, 7.4 * len(rows)), squeeze=False,
+                             gridspec_kw={"height_ratios": [3, 2] * len(rows)})
+    for r, (c, (g, best)) in enumerate(rows):
+        for j in range(ncol):
+            top, bottom = axes[2 * r, j], axes[2 * r + 1, j]
+            if j >= len(best["release_rad"]):
+                top.axis("off")
+                bottom.axis("off")
+                continue
+            _panel(top, bottom, src, c, g, best, j)
+    fig.tight_layout()
+    savefig_atomic(fig, path, dpi=110)
+    plt.close(fig)
+    return path.name
+
+
+def _panel(top, bottom, src, c: dict, g, best: dict, j: int) -> None:
+    w = int(np.argmin(np.abs(g.releases - best["release_rad"][j])))
+    keep = g.t <= best["settle_s"] + 1e-9
+    t = g.t[keep]
+    labels = list(g.central)
+    ref = g.central[labels[0]][w][keep]
+    colours = ["tab:blue", "tab:orange", "tab:green", "tab:red"]
+    sig = src.prep.signal
+    for k, lab in enumerate(labels):
+        y = g.central[lab][w][keep]
+        s = np.sqrt(g.var[lab][w][keep])
+        top.plot(t, y, color=colours[k % 4], lw=1.3, label=lab)
+        top.fill_between(t, y - 2 * s, y + 2 * s, color=colours[k % 4], alpha=0.2, lw=0)
+        if k:
+            bottom.plot(t, y - ref, color=colours[k % 4], lw=1.3, label=f"{lab} - {labels[0]}")
+        bottom.fill_between(t, y - ref - 2 * s, y - ref + 2 * s, color=colours[k % 4], alpha=0.2, lw=0,
+                            label=f"{lab}: 2 sd of its parameter draws")
+    bottom.axhspan(-2 * src.noise, 2 * src.noise, color="0.3", alpha=0.45, lw=0,
+                   label=f"log's noise, +-2 sigma ({2 * src.noise:.2g} rad)")
+    still = t[~g.moving[w][keep]]
+    if still.size:        # not counted: the body has stopped (roboball.design.experiments.moving)
+        for ax in (top, bottom):
+            ax.axvspan(still[0], t[-1], color="0.85", zorder=0, label="at rest: not counted" if ax is bottom else None)
+    joint = f", steer joint {best['steer_joint']}" if best.get("steer_joint") else ""
+    top.set_title(f"{c['choice']}\nrelease at {best['release_from_rest_rad'][j]:+.2f} rad from rest{joint}: "
+                  f"separation {best['separation']:.3g} noise levels", fontsize=10)
+    top.set_ylabel(f"predicted {sig} (rad)")
+    top.legend(fontsize=8, loc="upper right", title="candidate (band: 2 sd of parameter draws)", title_fontsize=7)
+    bottom.set_xlabel("time since release (s)")
+    bottom.set_ylabel("difference (rad)")
+    # below the panel, not over it: the differences fill the panel's whole height
+    bottom.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.3), ncol=2, frameon=False)
+    for ax in (top, bottom):
+        ax.grid(alpha=0.3)
+
+
+def _clean(obj):
+    """JSON-safe copy: NaN/inf -> None, numpy -> Python."""
+    if isinstance(obj, dict):
+        return {str(k): _clean(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_clean(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _clean(obj.tolist())
+    if isinstance(obj, (np.floating, float)):
+        return float(obj) if math.isfinite(obj) else None
+    if isinstance(obj, np.integer):
+        return int(obj)
+    if isinstance(obj, np.bool_):
+        return bool(obj)
+    return obj

@@ -1,0 +1,102 @@
+"""The design of one diagnosis: every choice's experiments simulated and ranked, the best named
+with why it separates the candidates, and where none does, what sensor would (design.json)."""
+from __future__ import annotations
+
+import time
+
+from roboball.design.experiments import grid
+from roboball.design.rank import KEEP, SETTLES, experiments
+from roboball.design.refit import refit_gaps
+
+SHORTLIST = 4       # single releases per choice refitted (roboball.design.refit): the costly step
+from roboball.design.why import sensor, why
+
+
+def steer_settings(src, choice) -> tuple:
+    """The steer clamp settings to try: a shell's explanations may part more with the pendulum
+    free than clamped (or the reverse); the steer choice keeps each candidate's own."""
+    if src.kind != "shell_rock" or choice.about == "steer_joint":
+        return (None,)
+    return ("locked", "free")
+
+
+def plan(src, log=None) -> tuple[dict, dict]:
+    """(design.json content, {choice name: the best experiment's Grid})."""
+    t0 = time.perf_counter()
+    out = {"diagnosis": str(src.folder), "kind": src.kind, "recording": str(src.details["recording"]),
+           "noise_rad": src.noise, "residual_rad": src.residual, "settles_at_separation": SETTLES,
+           "choices": [], "experiments": []}
+    grids = {}
+    for choice in src.choices:
+        rows, by_setting = [], {}
+        for setting in steer_settings(src, choice):
+            g = grid(src, choice, setting)
+            rest = choice.candidates[0].model(src.kind, setting).rest
+            by_setting[setting or ""] = (g, rest)
+            rows += experiments(src, choice, g, rest)
+        rows.sort(key=lambda r: (-r["expected_chi2_gap"], r["recording_s"]))
+        user = _user_like(src, rows)
+        rows = _refitted(src, choice, rows, user, by_setting)
+        best = rows[0] if rows else None
+        summary = {"choice": choice.name, "about": choice.about,
+                   "candidates": [{"label": c.label, "effects": list(c.effects), "steer_joint": c.steer_joint or None,
+                                   "mechanism": choice.mechanism.get(c.label, "")} for c in choice.candidates],
+                   "experiments_considered": len(rows), "best": best, "user_like": user,
+                   "best_single_release": next((r for r in rows if len(r["release_rad"]) == 1
+                                                and r["settle_s"] == (user or best)["settle_s"]), None)}
+        summary["settled"] = bool(best and best["settles"])
+        summary["why"] = why(src, choice, best, user) if best else "no feasible experiment"
+        if not summary["settled"]:
+            summary["sensor"] = sensor(choice)
+        out["choices"].append(summary)
+        out["experiments"] += rows[:KEEP]
+        if best:
+            grids[choice.name] = (by_setting[best.get("steer_joint") or ""][0], best)
+        if log:
+            log(f"{choice.name}: best separation {best['separation']:.3g} noise levels" if best else f"{choice.name}: none")
+    out["experiments"].sort(key=lambda r: (not r["refitted"], -r["separation"] if r["refitted"] else -r["expected_chi2_gap"]))
+    out["time_s"] = round(time.perf_counter() - t0, 2)
+    return out, grids
+
+
+def shortlist(rows: list, user: dict | None) -> list:
+    """The single releases worth refitting: a repeat of the user's, then the best by the
+    expected gap and by the fixed-parameter separation, in turn, `SHORTLIST` in all."""
+    singles = [r for r in rows if len(r["release_rad"]) == 1]
+    by_fixed = sorted(singles, key=lambda r: -r["separation_fixed_params"])
+    out = [user] if user else []
+    for a, b in zip(singles, by_fixed):
+        for r in (a, b):
+            if len(out) < SHORTLIST and all(r is not x for x in out):
+                out.append(r)
+    return out
+
+
+def _refitted(src, choice, rows: list, user, by_setting: dict) -> list:
+    """`rows` with the shortlist's refit separations; ranked: refitted first (by the refit
+    separation, which is what diagnosing both recordings would show), then the rest by gap."""
+    short = shortlist(rows, user)
+    for setting in {r.get("steer_joint") or "" for r in short}:
+        mine = [r for r in short if (r.get("steer_joint") or "") == setting]
+        g = by_setting[setting][0]
+        for r, sep in zip(mine, refit_gaps(src, choice, g, mine)):
+            # refitted, the parameters' uncertainty is what the two recordings together leave
+            r.update(refitted=True, separation=round(sep, 4),
+                     separation_vs_residual=round(sep * src.noise / src.residual, 4), settles=sep >= SETTLES)
+    done = sorted((r for r in rows if r["refitted"]), key=lambda r: -r["separation"])
+    return done + [r for r in rows if not r["refitted"]]
+
+
+def _user_like(src, rows: list) -> dict | None:
+    """The considered experiment nearest a repeat of the user's own first release."""
+    singles = [r for r in rows if len(r["release_rad"]) == 1]
+    if not singles:
+        return None
+    settle = min(r["settle_s"] for r in singles)
+    q_user = float(src.prep.windows[0].release.y_release)    # the hand's release, not the first turning point
+    same = [r for r in singles if r["settle_s"] == settle and r.get("steer_joint") in (None, "", _user_joint(src))]
+    return min(same or singles, key=lambda r: abs(r["release_rad"][0] - q_user))
+
+
+def _user_joint(src) -> str:
+    return "free" if "steer_angle@0" in src.details.get("final_values", {}) else "locked"

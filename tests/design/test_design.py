@@ -1,0 +1,160 @@
+"""roboball.design (issue 47): which recording would decide between explanations a diagnosis
+could not tell apart.  A stand recording made by the reduced model itself with an added inertia,
+at a release where a negative stiffness fits it as well, and a diagnosis folder written by hand
+(the contract's keys, the details' values) so the tests need no search: the design must find
+that large releases separate the two (gravity's torque per radian falls with the angle, a
+spring's does not) and that identical candidates are never separated."""
+import json
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from roboball.design import design
+from roboball.design.experiments import grid, moving
+from roboball.design.inputs import read_source
+from roboball.design.rank import same_experiment
+from roboball.errors import RoboballError
+from roboball.ingest.recording import write_recording
+from roboball.reduced.stand import StandModel
+
+NOISE = 3e-4        # rad: like the real steer log's quantisation
+DELTA_I = 0.06      # kg m^2
+VISCOUS = 0.15      # N m s/rad
+RELEASE = 0.35      # rad from rest: a small swing, where the two tie
+
+
+def _stand_log(tmp_path):
+    m = StandModel("steer_stand")
+    dt = 0.01
+    n = int(7.0 / 0.002)
+    P = {"viscous_c": np.array([VISCOUS]), "added_inertia.delta_i": np.array([DELTA_I])}
+    Q, _ = m.simulate(np.array([m.rest + RELEASE]), P, n)
+    t_fine = np.arange(n + 1) * 0.002
+    t = np.arange(0.0, 7.0, dt)
+    y = np.interp(t, t_fine, Q[:, 0]) + np.random.default_rng(47).normal(0.0, NOISE, t.size)
+    path = write_recording(tmp_path / "stand.csv", pd.DataFrame({"time_s": t, "steer_angle_rad": y}),
+                           {"kind": "steer_stand", "pressure_kpa": None})
+    return m, path
+
+
+def _diagnosis(tmp_path, k_alt=None, alt="linear_stiffness"):
+    """A diagnosis folder as `roboball diagnose` writes it: added inertia chosen, `alt` listed."""
+    m, rec = _stand_log(tmp_path)
+    # the stiffness that matches the inertia's small-swing frequency: k_g + k = k_g I / (I + delta)
+    k = -m.k_g * DELTA_I / (m.inertia + DELTA_I) if k_alt is None else k_alt
+    final = {"viscous_c": VISCOUS, "added_inertia.delta_i": DELTA_I, "q0@0": m.rest + RELEASE, "ts@0": 0.0}
+    alt_values = {"viscous_c": VISCOUS, f"{alt}.k": k, "q0@0": m.rest + RELEASE, "ts@0": 0.0}
+    ci = {"viscous_c": [VISCOUS - 0.002, VISCOUS + 0.002], "added_inertia.delta_i": [DELTA_I - 0.001, DELTA_I + 0.001]}
+    alt_ci = {"viscous_c": ci["viscous_c"], f"{alt}.k": [k - 0.03, k + 0.03]}
+    folder = tmp_path / "diag"
+    folder.mkdir()
+    (folder / "diagnosis.json").write_text(json.dumps({
+        "kind": "steer_stand", "verdict": "augmented", "located": [], "baseline": {"fitted": {}},
+        "missing_physics": [{"effect": "added_inertia", "parameters": {"delta_i": DELTA_I},
+                             "ci95": {"delta_i": ci["added_inertia.delta_i"]}, "mechanism": "rotor inertia",
+                             "alternatives": [{"effect": alt, "parameters": {"k": k},
+                                               "ci95": {"k": alt_ci[f"{alt}.k"]}, "mechanism": "softer gravity"}]}],
+        "fit": {"rmse_after": NOISE, "units": "rad"}}))
+    (folder / "details.json").write_text(json.dumps({
+        "recording": str(rec), "fit_noise": NOISE, "final_values": final, "ci95": ci,
+        "alternatives": {"added_inertia": [{"effect": alt, "values": alt_values, "ci95": alt_ci}]}}))
+    return m, folder
+
+
+def test_large_releases_separate_inertia_from_stiffness(tmp_path):
+    m, folder = _diagnosis(tmp_path)
+    src = read_source(folder)
+    assert [c.name for c in src.choices] == ["added_inertia or linear_stiffness"]
+    g = grid(src, src.choices[0], None)
+    a, b = g.central
+    rms = np.sqrt(np.mean((g.central[a] - g.central[b]) ** 2, axis=1))
+    amp = np.abs(g.releases - m.rest)
+    # nearly tied at small swings (sin(a)/a is 1 to 0.2% at 0.1 rad), apart by many noise levels
+    # at the largest feasible releases
+    largest = rms[g.feasible][np.argmax(amp[g.feasible])]
+    assert rms[np.argmin(np.abs(amp - 0.1))] < 0.1 * largest
+    assert largest > 10 * NOISE
+    _, js = design(folder, out_dir=tmp_path / "out")
+    best = js["choices"][0]["best"]
+    assert best["refitted"] and js["choices"][0]["settled"]
+    assert abs(best["release_from_rest_rad"][0]) >= 1.0, best
+    assert best["separation"] >= 5.0
+    user = js["choices"][0]["user_like"]
+    assert abs(user["release_from_rest_rad"][0] - RELEASE) < 0.051
+    assert best["separation"] > 3 * user["separation"]
+    assert "sin" in js["choices"][0]["why"]
+    md = (tmp_path / "out" / "design.md").read_text()
+    # the repeat is named apart only when it is another experiment than the best
+    assert "A repeat of the user's release" in md and "recorded again" not in md
+    for f in ("design.json", "design.md", "design.png"):
+        assert (tmp_path / "out" / f).stat().st_size > 0
+    stored = json.loads((tmp_path / "out" / "design.json").read_text())
+    assert stored["experiments"][0]["kind"] == "steer_stand" and "release_rad" in stored["experiments"][0]
+
+
+def test_steer_joint_limits_bound_the_releases(tmp_path):
+    _, folder = _diagnosis(tmp_path)
+    src = read_source(folder)
+    g = grid(src, src.choices[0], None)
+    # the steer joint stops at +1.0 rad: a release beyond it, or one that swings past it, is no experiment
+    assert not g.feasible[g.releases > 1.0].any()
+    for y in g.central.values():
+        assert np.all(y[g.feasible] <= 1.0)
+
+
+def test_the_same_explanation_twice_is_never_separated(tmp_path):
+    m, folder = _diagnosis(tmp_path, k_alt=0.0)
+    det = json.loads((folder / "details.json").read_text())
+    # the "alternative" is the chosen model itself: nothing can tell them apart
+    det["alternatives"]["added_inertia"][0]["values"] = dict(det["final_values"])
+    (folder / "details.json").write_text(json.dumps(det))
+    _, js = design(folder)
+    c = js["choices"][0]
+    assert c["best"]["separation"] < 0.5
+    assert not c["settled"] and "torque" in c["sensor"]
+
+
+def test_at_rest_samples_are_not_counted():
+    t = np.arange(10) * 0.1
+    speed = np.array([[1.0, 0.5, 0.03, 0.01, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+                      [0.0] * 10])
+    m = moving(speed, t)
+    assert m[0].tolist() == [True, True, True] + [False] * 7
+    assert m[1].tolist() == [True] + [False] * 9
+
+
+def test_bad_folders_get_one_line_errors(tmp_path):
+    with pytest.raises(RoboballError, match="not a folder"):
+        read_source(tmp_path / "nothing")
+    with pytest.raises(RoboballError, match=r"diagnosis.json: not found"):
+        read_source(tmp_path)
+    (tmp_path / "diagnosis.json").write_text("{oops")
+    with pytest.raises(RoboballError, match=r"diagnosis.json: not JSON"):
+        read_source(tmp_path)
+    (tmp_path / "diagnosis.json").write_text(json.dumps({"kind": "steer_coupled", "missing_physics": [], "fit": {}}))
+    (tmp_path / "details.json").write_text(json.dumps({"recording": "x.csv", "final_values": {}, "ci95": {},
+                                                        "fit_noise": 1e-3}))
+    with pytest.raises(RoboballError, match="steer_coupled"):
+        read_source(tmp_path)
+    (tmp_path / "diagnosis.json").write_text(json.dumps({"kind": "steer_stand", "missing_physics": [], "fit": {}}))
+    with pytest.raises(RoboballError, match=r"x.csv: file not found"):
+        read_source(tmp_path)
+
+
+def test_cli_refuses_a_folder_without_a_diagnosis(tmp_path):
+    r = subprocess.run([sys.executable, "-m", "roboball.cli", "design", str(tmp_path)], capture_output=True, text=True)
+    assert r.returncode != 0
+    assert r.stderr.strip().count("\n") == 0 and "diagnosis.json: not found" in r.stderr
+    assert not (tmp_path / "design").exists()
+
+
+def test_the_same_experiment_is_recognised():
+    a = {"release_rad": [-1.236], "settle_s": 7.1, "steer_joint": "locked"}
+    assert same_experiment(a, dict(a))
+    assert not same_experiment(a, dict(a, settle_s=14.2))
+    assert not same_experiment(a, dict(a, release_rad=[-1.136]))
+    assert not same_experiment(a, dict(a, steer_joint="free"))
