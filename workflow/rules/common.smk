@@ -4,6 +4,7 @@
 # define rules only.
 import json
 import os
+import shlex
 import sys
 from pathlib import Path
 
@@ -131,6 +132,7 @@ if COUPLED_SET and ((COUPLED_SET, "steer", "majd") not in FITS
 COUPLED = stems("steer_coupled", COUPLED_SET) if COUPLED_SET else []
 # a user's campaign (make figures RAW=DIR) is named in Fig. S2's title; the committed run's keep theirs
 COUPLED_TITLE = CAMPAIGN.name(COUPLED_SET) if config.get("campaign_dir") and COUPLED else ""
+COUPLED_TITLE_ARG = f"--campaign {shlex.quote(COUPLED_TITLE)}" if COUPLED_TITLE else ""
 COUPLED_LAWS = (REGRESSION_CSV if REGRESSION else f"results/identify/{COUPLED_SET}_shell_laws.csv") if COUPLED else ""
 
 PF = config.get("figures_dir", "paper_figures")

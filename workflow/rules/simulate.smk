@@ -196,7 +196,7 @@ rule figS2_steer_coupled:
     params:
         code=CODE["steer-coupled"],
         nm_evals=config.get("steer_coupled", {}).get("nm_evals", 30),
-        campaign=COUPLED_TITLE,
+        campaign=COUPLED_TITLE_ARG,
     resources:
         mem_mb=1500,
         runtime=15,
@@ -207,4 +207,4 @@ rule figS2_steer_coupled:
         "{ROBOBALL} steer-coupled --recordings {input.recordings} --regression {input.regression} "
         "--friction-steer {input.friction} --nm-evals {params.nm_evals} --out-json {output.summary} "
         "--out-csv {output.traces} --out-png {output.png} --table-csv {output.table_csv} "
-        "--table-md {output.table_md} --hydro-fit '{input.hydro_fit}' --campaign {params.campaign:q} > {log} 2>&1"
+        "--table-md {output.table_md} --hydro-fit '{input.hydro_fit}' {params.campaign} > {log} 2>&1"
