@@ -15,6 +15,7 @@ from roboball.config import first_nonfinite, load_yaml
 from roboball.errors import RoboballError
 from roboball.pipeline.codedeps import stage_fingerprints
 from roboball.pipeline.allocator import job_preload
+from roboball.pipeline.numerics import job_environment
 from roboball.pipeline.plan import (REPLAYS, STAND_FIGURE, Campaign, hydro_fit_settings, hydro_grid_moduli,
                                     schedule_args, shell_pressure_groups, sweep_cases)
 
@@ -56,6 +57,11 @@ ROBOBALL = os.path.join(os.path.dirname(sys.executable), "roboball") + " stage"
 _preload = job_preload(os.environ)
 if _preload:
     os.environ["LD_PRELOAD"] = _preload
+
+# Every job computes on the numeric code paths every x86-64 machine has (NumPy's baseline, one
+# OpenBLAS kernel and thread, Numba for a generic CPU, libm's plain variants), so the results do
+# not depend on the CPU (roboball.pipeline.numerics; ROBOBALL_NUMERICS=native to opt out).
+os.environ.update(job_environment(os.environ))
 
 # Each rule's params carry CODE[stage]: a hash of the package source files the stage runs and,
 # when it reads them, of the robot facts (roboball.pipeline.codedeps).  Editing a friction law

@@ -28,6 +28,9 @@ ROBOT_FACTS_READER = "roboball.config"
 # Run by every stage besides its own closure: the runner that turns `roboball stage NAME --arg`
 # into the call (only its own file: its imports are the CLI's, not the stage's).
 STAGE_RUNNER = "roboball.cli.stage"
+# The numeric code paths every job runs on (set by the workflow, not imported by the stages): a
+# change of them changes every result.
+NUMERICS = "roboball.pipeline.numerics"
 # The pinned environment (drake, numpy, emcee, ...): an upgrade can change any number.
 LOCK_FILE = "requirements.lock"
 # Bookkeeping that computes fingerprints and changes no result: importing it (the friction-
@@ -142,12 +145,13 @@ def _fingerprint(modules: list[str], sources: dict[str, bytes], config_dir: Path
 def source_fingerprint(module: str, root: Path = PACKAGE_ROOT) -> str:
     """A short hash of the source files `module` runs (its import closure), without any config:
     the identity of a computation's code, for results cached outside Snakemake (MCMC chains)."""
-    return _fingerprint([m for m in closure(module, root) if m != ROBOT_FACTS_READER], {}, Path("."), root)
+    return _fingerprint([m for m in closure(module, root) if m != ROBOT_FACTS_READER] + [NUMERICS], {}, Path("."),
+                        root)
 
 
 def _stage_modules(module: str, root: Path) -> list[str]:
     """What a stage defined in `module` runs: its closure and the stage runner."""
-    return sorted(set(closure(module, root)) | {STAGE_RUNNER})
+    return sorted(set(closure(module, root)) | {STAGE_RUNNER, NUMERICS})
 
 
 def stage_fingerprint(stage: str, config_dir: str | Path = "configs", root: Path = PACKAGE_ROOT) -> str:
