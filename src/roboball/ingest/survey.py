@@ -82,8 +82,7 @@ def write_manifest(raw_dir: str | Path, rows: list[dict], force: bool = False) -
     w = csv.DictWriter(buf, fieldnames=list(COLUMNS), lineterminator="\n")
     w.writeheader()
     w.writerows(rows)
-    tmp = Path(raw_dir) / ".MANIFEST.check.csv"
-    tmp.write_text(buf.getvalue(), encoding="utf-8")
+    tmp = write_text_atomic(Path(raw_dir) / ".MANIFEST.check.csv", buf.getvalue())
     try:
         read_manifest(raw_dir, tmp)
     finally:
