@@ -23,9 +23,8 @@ alternating between them case by case (so that always naming one of them scores 
   0.2-0.35 over 8 s or 0.02-0.05 over 2-3 s the first diagnosis named the truth without listing
   the other (in the cases looked at, the other's held-out RMS 40% or more above; the
   equivalence test allows 10%), so the loss here is damping ratio 0.01-0.02: material, its
-  shape not (at 0.004-0.012 the release finder refused more of the nearly undamped logs). (The
-  real shell log's tie, held-out 0.0068 against 0.0073 rad, comes with a model misfit far above
-  its noise.)
+  shape not. (The real shell log's tie, held-out 0.0068 against 0.0073 rad, comes with a model
+  misfit far above its noise.)
 * `steer_setting`: a shell release of 0.2-0.35 rad (viscous damping of 0.8-4 N m s/rad hidden)
   whose steer setting was not recorded (sidecar `steer_joint: unknown`); the test bed's pendulum
   is clamped or free on its joint (the coupled experiment, roboball.testbed.run.truth_spec as
