@@ -5,7 +5,6 @@ at a release where a negative stiffness fits it as well, and a diagnosis folder 
 that large releases separate the two (gravity's torque per radian falls with the angle, a
 spring's does not) and that identical candidates are never separated."""
 import json
-import math
 import subprocess
 import sys
 
