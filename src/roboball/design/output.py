@@ -3,12 +3,12 @@ short readable account) and design.png (the best experiment's predicted recordin
 per candidate, over the log's noise band)."""
 from __future__ import annotations
 
-import math
 
 import numpy as np
 
 from roboball.atomic import output_folder, savefig_atomic, write_json_atomic, write_text_atomic
 from roboball.design.rank import same_experiment
+from roboball.diagnose.report import json_safe
 
 OUTPUT_FILES = ("design.json", "design.md", "design.png")
 
@@ -17,7 +17,7 @@ def write(src, js: dict, grids: dict, out_dir) -> None:
     out = output_folder(out_dir, files=OUTPUT_FILES)
     figure = _figure(src, js, grids, out / "design.png")
     js["figure"] = figure
-    write_json_atomic(out / "design.json", _clean(js))
+    write_json_atomic(out / "design.json", json_safe(js))
     write_text_atomic(out / "design.md", markdown(js))
 
 
@@ -140,20 +140,3 @@ def _panel(top, bottom, src, c: dict, g, best: dict, j: int) -> None:
     bottom.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.3), ncol=2, frameon=False)
     for ax in (top, bottom):
         ax.grid(alpha=0.3)
-
-
-def _clean(obj):
-    """JSON-safe copy: NaN/inf -> None, numpy -> Python."""
-    if isinstance(obj, dict):
-        return {str(k): _clean(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_clean(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return _clean(obj.tolist())
-    if isinstance(obj, (np.floating, float)):
-        return float(obj) if math.isfinite(obj) else None
-    if isinstance(obj, np.integer):
-        return int(obj)
-    if isinstance(obj, np.bool_):
-        return bool(obj)
-    return obj

@@ -42,10 +42,10 @@ def write(d: Diagnosis, out_dir, drake: bool = True) -> dict:
     js = diagnosis_json(d, loc_base, *stats)
     figures = write_figures(d, out, drake_base, drake_aug, loc_base, loc_final,
                             engine="Drake" if drake else "reduced model")
-    write_json_atomic(out / "details.json", _clean(details(d, loc_base, loc_final)))
+    write_json_atomic(out / "details.json", json_safe(details(d, loc_base, loc_final)))
     write_csv_atomic(predictions_table(d, drake_base, drake_aug), out / "predictions.csv")
     write_text_atomic(out / "report.md", report_md(d, js, loc_base, loc_final, figures, stats))
-    write_json_atomic(out / "diagnosis.json", _clean(js))
+    write_json_atomic(out / "diagnosis.json", json_safe(js))
     return js
 
 
@@ -63,7 +63,7 @@ def _drake_predictions(d: Diagnosis, drake: bool):
 
 
 def details(d: Diagnosis, loc_base, loc_final) -> dict:
-    """details.json's content (before `_clean`)."""
+    """details.json's content (before `json_safe`)."""
     return {
         "recording": str(d.prep.label),
         "signal": d.prep.signal,
@@ -108,14 +108,14 @@ def predictions_table(d: Diagnosis, drake_base: dict, drake_aug: dict):
     return pd.concat(frames, ignore_index=True)
 
 
-def _clean(obj):
+def json_safe(obj):
     """JSON-safe copy: NaN/inf -> None, numpy -> Python, tuples -> lists."""
     if isinstance(obj, dict):
-        return {str(k): _clean(v) for k, v in obj.items()}
+        return {str(k): json_safe(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
-        return [_clean(v) for v in obj]
+        return [json_safe(v) for v in obj]
     if isinstance(obj, np.ndarray):
-        return [_clean(v) for v in obj.tolist()]
+        return [json_safe(v) for v in obj.tolist()]
     if isinstance(obj, (np.floating, float)):
         return float(obj) if math.isfinite(obj) else None
     if isinstance(obj, (np.integer,)):
