@@ -131,10 +131,7 @@ DEFLATE_SCHEDULE = DEFLATE.get("schedule", {})
 # Beyond the paper (issue 27, Fig. S2): the coupled steer repeats of one campaign, with that
 # campaign's steer-stand Majd fit; its shell laws are the regression, else that campaign's shell
 # releases held constant (a pressure-free law: the repeats' pressure is then not fitted).
-COUPLED_SET = CAMPAIGN.coupled_dataset()
-if COUPLED_SET and ((COUPLED_SET, "steer", "majd") not in FITS
-                    or not (REGRESSION or stems("shell_rock", COUPLED_SET))):
-    COUPLED_SET = None
+COUPLED_SET = CAMPAIGN.coupled_plan(config["friction"])[0]
 COUPLED = stems("steer_coupled", COUPLED_SET) if COUPLED_SET else []
 # a user's campaign (make figures RAW=DIR) is named in Fig. S2's title; the committed run's keep theirs
 COUPLED_TITLE = CAMPAIGN.name(COUPLED_SET) if config.get("campaign_dir") and COUPLED else ""

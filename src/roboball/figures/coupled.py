@@ -24,6 +24,11 @@ def label(name: str) -> str:
 _WORDS = {2: "two", 3: "three", 4: "four", 5: "five"}
 
 
+def count_word(n: int) -> str:
+    """A small count as a word in prose and titles ("three repeats"); larger ones as digits."""
+    return _WORDS.get(n, str(n))
+
+
 def plot(traces: pd.DataFrame, table: pd.DataFrame, out_png: str, campaign: str = "",
          pressure_free: bool = False) -> None:
     """Two rows (pipe angle, steer angle) by one column per repeat; PNG + PDF.  `campaign` names
@@ -56,6 +61,6 @@ def plot(traces: pd.DataFrame, table: pd.DataFrame, out_png: str, campaign: str 
     where = f" of {campaign}" if campaign else ""
     how = ("shell laws held at the campaign's shell releases; pressure not fitted" if pressure_free
            else "pressure models at each held-out repeat's fold pressure")
-    fig.suptitle(f"Fig. S2: coupled steer test, {_WORDS.get(n, n)} real repeats{where} against every shell model "
+    fig.suptitle(f"Fig. S2: coupled steer test, {count_word(n)} real repeats{where} against every shell model "
                  f"({how})", fontsize=10)
     save(fig, out_png)

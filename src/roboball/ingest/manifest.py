@@ -156,7 +156,7 @@ def _pressure(text: str, side: dict, kind: str, where: str, name: str) -> str:
             raise ConfigError(f"{where}: {name}: a {kind} recording needs its shell pressure: give column "
                               "pressure_kpa (or 'unknown' if it was not logged), a sidecar's pressure_kpa, or "
                               "'roboball manifest --pressure-kpa P'")
-        return "" if text == "" or kind == "steer_coupled" else text
+        return ""
     try:
         p = float(text)
     except ValueError:

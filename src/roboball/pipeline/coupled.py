@@ -31,9 +31,6 @@ IN_SAMPLE = ("authors_nm", "authors_hand", "ours_nm")
 PAPER_MODELS = ("point", "injected", "hydroelastic", "hydro_half", "authors_nm", "authors_hand", "hydro_tuned")
 
 
-_WORDS = {2: "two", 3: "three", 4: "four", 5: "five"}
-
-
 def _rows(name, rep, pred, held_out, p_kpa):
     from roboball.diagnose.coupled import rms
     e = rms(pred, rep)
@@ -116,7 +113,7 @@ def overall(table: pd.DataFrame) -> pd.DataFrame:
 def table_markdown(table: pd.DataFrame, summary: dict) -> str:
     """The RMS table as Markdown (over the repeats, then per repeat), with the pressure and the
     two losses under it."""
-    from roboball.figures.coupled import label
+    from roboball.figures.coupled import count_word, label
     names = list(dict.fromkeys(table.model))
     lines = ["# Coupled steer test: RMS error per model, repeat and coordinate (Fig. S2)", "",
              "Models: " + "; ".join(f"`{n}`: {label(n)}" for n in names) + ".", "",
@@ -138,7 +135,7 @@ def table_markdown(table: pd.DataFrame, summary: dict) -> str:
                   f"{pf['omega_n_rad_s']:.3f} rad/s), so the injected shell runs with them and the models that "
                   "need a pressure (hydroelastic eq. 10/11) are left out."]
     else:
-        n = _WORDS.get(len(pf["folds"]), len(pf["folds"]))
+        n = count_word(len(pf["folds"]))
         lines += ["", f"Pressure (not logged), fitted with the injected model, shared by the {n} repeats: "
                   f"{pf['p_kpa']:.1f} kPa, 95 % profile interval [{pf['ci95_kpa'][0]:.1f}, {pf['ci95_kpa'][1]:.1f}] kPa; "
                   "leave-one-out folds: " + ", ".join(f"{v:.1f}" for v in pf["folds"].values()) + " kPa."]

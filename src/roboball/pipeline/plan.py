@@ -27,7 +27,6 @@ from roboball.kinds import STANDS
 # (rad: steer/drive stand angle, shell roll angle; the ramp starts from rest).
 REPLAYS = {"steer_stand": ("point", 0.8), "drive_stand": ("point", 0.6), "shell_rock": ("injected", -0.3),
            "ramp": ("hydroelastic", 0.0)}
-JOINT_OF_STAND = {"steer_stand": "steer", "drive_stand": "drive"}
 STAND_FIGURE = {"steer": 7, "drive": 8}          # the paper's figure of each joint's stand fits
 
 
@@ -160,6 +159,19 @@ class Campaign:
     def coupled_dataset(self) -> str | None:
         return next((d for d in self.datasets if len(self.stems("steer_coupled", d)) >= 2), None)
 
+    def coupled_plan(self, friction: dict) -> tuple:
+        """(the dataset whose coupled repeats make Fig. S2, or None; why not): it needs two
+        repeats, that campaign's steer Majd fit, and shell laws (the regression, else that
+        campaign's shell releases)."""
+        cd = self.coupled_dataset()
+        if cd is None:
+            return None, "fewer than two steer_coupled recordings in one campaign"
+        if (cd, "steer", "majd") not in self.fits(friction):
+            return None, f"no steer_stand Majd fit in '{self.name(cd)}' for its steer friction"
+        if not self.has_regression() and not self.stems("shell_rock", cd):
+            return None, f"no shell regression and no shell_rock recording in '{self.name(cd)}' to take the shell laws from"
+        return cd, ""
+
     def diagnosed_stems(self) -> list:
         """The stand and shell recordings diagnosed one by one: those of the datasets whose
         config asks for it (the virtual campaign's are its calibration data)."""
@@ -213,14 +225,9 @@ def plan_lines(camp: Campaign, friction: dict) -> list:
                        "(configs/robot.yaml), without posterior draws")
     else:
         say(False, "Figs. 13, 14 (ramp descents, PME)", "no ramp recording")
-    cd = camp.coupled_dataset()
+    cd, why = camp.coupled_plan(friction)
     if cd is None:
-        say(False, "Fig. S2 (coupled steer test)", "fewer than two steer_coupled recordings in one campaign")
-    elif (cd, "steer", "majd") not in camp.fits(friction):
-        say(False, "Fig. S2 (coupled steer test)", f"no steer_stand Majd fit in '{camp.name(cd)}' for its steer friction")
-    elif not reg and not camp.stems("shell_rock", cd):
-        say(False, "Fig. S2 (coupled steer test)", "no shell regression and no shell_rock recording in "
-            f"'{camp.name(cd)}' to take the shell laws from")
+        say(False, "Fig. S2 (coupled steer test)", why)
     else:
         say(True, f"Fig. S2 (coupled steer test, {len(camp.stems('steer_coupled', cd))} repeats of "
             f"'{camp.name(cd)}')" + ("" if reg else ": shell laws held at its shell releases' zeta and omega_n "
