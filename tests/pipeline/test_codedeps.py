@@ -103,3 +103,33 @@ def test_fingerprints_change_with_what_the_stage_runs_and_nothing_else(tmp_path)
     assert all(locked[s] != run[s] for s in run)
     assert C.source_fingerprint("roboball.identify.friction.fit", root) != chain    # MCMC chains restart too
     C.clear_caches()
+
+
+def test_the_cached_table_is_the_computed_one_until_any_byte_changes(tmp_path):
+    """The DAG reuses the fingerprint table from .snakemake/ while no input byte changed (a run
+    with nothing to do must not parse the package); an edit, robot.yaml included, recomputes it,
+    and a torn cache file is recomputed rather than trusted."""
+    root = tmp_path / "src" / "roboball"
+    shutil.copytree(C.PACKAGE_ROOT, root, ignore=shutil.ignore_patterns("__pycache__"))
+    cfg = tmp_path / "configs"
+    cfg.mkdir()
+    shutil.copy2(REPO / "configs" / "robot.yaml", cfg / "robot.yaml")
+    cache = tmp_path / ".snakemake" / "codes.json"
+    C.clear_caches()
+    fresh = C.stage_fingerprints(cfg, root)
+    assert C.stage_fingerprints(cfg, root, cache=cache) == fresh and cache.is_file()
+    assert C.stage_fingerprints(cfg, root, cache=cache) == fresh           # read back
+
+    law = root / "physics" / "friction.py"
+    law.write_text(law.read_text() + "\n# an edit of the friction laws\n")
+    C.clear_caches()
+    edited = C.stage_fingerprints(cfg, root, cache=cache)
+    assert edited == C.stage_fingerprints(cfg, root) and edited["friction-fit"] != fresh["friction-fit"]
+
+    (cfg / "robot.yaml").write_text((cfg / "robot.yaml").read_text() + "\n# a comment\n")
+    assert C.stage_fingerprints(cfg, root, cache=cache)["ramp-sim"] != edited["ramp-sim"]
+
+    cache.write_text('{"key": "torn')
+    C.clear_caches()
+    assert C.stage_fingerprints(cfg, root, cache=cache) == C.stage_fingerprints(cfg, root)
+    C.clear_caches()

@@ -15,6 +15,7 @@ from roboball.config import first_nonfinite, load_yaml
 from roboball.errors import RoboballError
 from roboball.pipeline.codedeps import stage_fingerprints
 from roboball.pipeline.allocator import job_preload
+from roboball.pipeline.bytecode import compile_package
 from roboball.pipeline.numerics import job_environment
 from roboball.pipeline.plan import (REPLAYS, STAND_FIGURE, Campaign, hydro_fit_settings, hydro_grid_moduli,
                                     schedule_args, shell_pressure_groups, sweep_cases)
@@ -67,7 +68,9 @@ os.environ.update(job_environment(os.environ))
 # when it reads them, of the robot facts (roboball.pipeline.codedeps).  Editing a friction law
 # reruns the fits and simulations that use it; editing configs/robot.yaml reruns what derives
 # from it; a figure module's edit reruns its figures only.
-CODE = stage_fingerprints(CONFIG_DIR)
+CODE = stage_fingerprints(CONFIG_DIR, cache=".snakemake/roboball-code-fingerprints.json")
+# Jobs load the package's modules compiled, not recompiled each time (roboball.pipeline.bytecode).
+compile_package()
 
 
 ##### the campaign plan #####

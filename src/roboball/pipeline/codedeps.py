@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import ast
 import hashlib
+import json
+import os
 from functools import lru_cache
 from pathlib import Path
 
@@ -159,10 +161,50 @@ def stage_fingerprint(stage: str, config_dir: str | Path = "configs", root: Path
     return _fingerprint(_stage_modules(stage_module(stage, root), root), {}, Path(config_dir), root)
 
 
-def stage_fingerprints(config_dir: str | Path = "configs", root: Path = PACKAGE_ROOT) -> dict[str, str]:
-    """Stage name (with -) -> fingerprint, for every stage of every stage module (each source
-    file read once; computed while Snakemake builds the DAG)."""
+def _compute_fingerprints(config_dir: Path, root: Path) -> dict[str, str]:
     sources: dict[str, bytes] = {}
     closures = {mod: _stage_modules(mod, root) for mod in set(_stage_table(root).values())}
     return {stage: _fingerprint(closures[mod], sources, Path(config_dir), root)
             for stage, mod in _stage_table(root).items()}
+
+
+def _inputs_key(config_dir: Path, root: Path) -> str:
+    """A hash of every byte the fingerprints can depend on: the package's source files (names
+    and contents), robot.yaml and the lock file.  Reading and hashing them takes milliseconds;
+    parsing them (what the fingerprints need) takes a third of a second."""
+    h = hashlib.sha256()
+    for dirpath, dirnames, filenames in os.walk(root):
+        dirnames[:] = sorted(d for d in dirnames if d != "__pycache__")
+        for name in sorted(filenames):
+            if name.endswith(".py"):
+                f = Path(dirpath, name)
+                h.update(str(f.relative_to(root)).encode() + b"\0" + f.read_bytes() + b"\0")
+    for f in (Path(config_dir) / "robot.yaml", root.parent.parent / LOCK_FILE):
+        h.update(f.name.encode() + b"\0" + (f.read_bytes() if f.is_file() else b"") + b"\0")
+    return h.hexdigest()
+
+
+def stage_fingerprints(config_dir: str | Path = "configs", root: Path = PACKAGE_ROOT,
+                       cache: str | Path | None = None) -> dict[str, str]:
+    """Stage name (with -) -> fingerprint, for every stage of every stage module (each source
+    file read once; computed while Snakemake builds the DAG).
+
+    With `cache` (a JSON file, e.g. in .snakemake/), the table is reused while no byte of its
+    inputs changed, so a run with nothing to do does not parse the package again; any edit,
+    even one that keeps a file's size and time, changes the key and recomputes it."""
+    if cache is None:
+        return _compute_fingerprints(Path(config_dir), root)
+    cache = Path(cache)
+    key = _inputs_key(Path(config_dir), root)
+    try:
+        stored = json.loads(cache.read_text(encoding="utf-8"))
+        if stored.get("key") == key and isinstance(stored.get("fingerprints"), dict):
+            return stored["fingerprints"]
+    except (OSError, ValueError):
+        pass                       # missing or torn cache: recompute
+    table = _compute_fingerprints(Path(config_dir), root)
+    cache.parent.mkdir(parents=True, exist_ok=True)
+    tmp = cache.with_name(f"{cache.name}.{os.getpid()}.tmp")
+    tmp.write_text(json.dumps({"key": key, "fingerprints": table}, sort_keys=True), encoding="utf-8")
+    os.replace(tmp, cache)         # atomic: two runs never read half a file
+    return table
