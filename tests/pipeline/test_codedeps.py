@@ -14,7 +14,7 @@ def _rules():
     """(rule name, stage it runs, the CODE key in its params) for every rule of the workflow."""
     out = []
     for smk in sorted((REPO / "workflow" / "rules").glob("*.smk")):
-        for block in re.split(r"(?m)^(?=rule )", smk.read_text())[1:]:
+        for block in re.split(r"(?m)^[ \t]*(?=rule )", smk.read_text())[1:]:
             name = block.split()[1].rstrip(":")
             stage = re.search(r"\{ROBOBALL\} ([a-z0-9-]+)", block)
             code = re.search(r'code=CODE\["([a-z0-9-]+)"\]', block)

@@ -70,7 +70,7 @@ def test_no_unseeded_random_draws_in_the_package():
 def _rule_blocks() -> dict[str, str]:
     blocks = {}
     for smk in sorted((REPO / "workflow" / "rules").glob("*.smk")):
-        parts = re.split(r"^rule (\w+):", smk.read_text(), flags=re.M)
+        parts = re.split(r"^[ \t]*rule (\w+):", smk.read_text(), flags=re.M)     # rules under an `if` too
         for name, body in zip(parts[1::2], parts[2::2]):
             blocks[name] = body
     return blocks
@@ -87,5 +87,18 @@ def test_every_seeded_stage_gets_its_seed_from_the_config():
     for stage in sorted(seeded):
         calls = {rule: body for rule, body in blocks.items() if re.search(r"\{ROBOBALL\} " + re.escape(stage) + r"\b", body)}
         for rule, body in calls.items():
+            each = re.search(r"each=(get_\w+)", body)
+            if each:               # a batched rule: its items' arguments come from an input function
+                body = _function_source(each.group(1))
+                assert '"seed": config["seed"]' in body, f"rule {rule}: {each.group(1)} gives stage {stage} no seed from config['seed']"
+                continue
             assert "--seed" in body, f"rule {rule} runs stage {stage} without --seed"
             assert 'config["seed"]' in body, f"rule {rule}: the seed of stage {stage} must derive from config['seed']"
+
+
+def _function_source(name: str) -> str:
+    """The source of an input function of workflow/rules/common.smk, up to the next definition."""
+    common = (REPO / "workflow" / "rules" / "common.smk").read_text()
+    m = re.search(rf"^def {name}\(.*?(?=^def |^#####|\Z)", common, re.M | re.S)
+    assert m, f"no input function {name} in common.smk"
+    return m.group(0)

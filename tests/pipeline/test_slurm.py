@@ -76,7 +76,7 @@ def test_profile_dry_run_lists_jobs_with_the_profile_resources(tmp_path):
 def test_profile_sets_resources_for_every_rule():
     rules = set()
     for smk in [ROOT / "Snakefile", *sorted((ROOT / "workflow" / "rules").glob("*.smk"))]:
-        rules |= set(re.findall(r"^rule (\w+):", smk.read_text(), re.M))
+        rules |= set(re.findall(r"^[ \t]*rule (\w+):", smk.read_text(), re.M))
     rules.discard("all")
     assert {"ingest", "decay", "ramp_sim", "figS1_deflating_ramp"} <= rules, rules
     missing = rules - set(_profile()["set-resources"])

@@ -235,17 +235,24 @@ def pressure_label(p):
     return "-" if p != p else f"{p:04.1f}"
 
 
-def qc_labels(wildcards):
+def qc_labels(stem):
     """The QC plot's labels: kind, pressure (kPa), recording, in the report's sort order."""
-    r = REC[wildcards.stem]
-    return {"kind": r["kind"], "pressure (kPa)": pressure_label(r["pressure_kpa"]), "recording": wildcards.stem}
+    r = REC[stem]
+    return {"kind": r["kind"], "pressure (kPa)": pressure_label(r["pressure_kpa"]), "recording": stem}
 
 
 ##### input functions #####
 
-def get_sidecar(wildcards):
-    """The recording's sidecar (kind, pressure, ramp angle, ramp exit), when it has one."""
-    return [s for s in [str(Path(REC[wildcards.stem]["src"]).with_suffix(".json"))] if Path(s).is_file()]
+def get_sidecars(wildcards):
+    """The recordings' sidecars (kind, pressure, ramp angle, ramp exit), those there are."""
+    return [s for s in (str(Path(REC[stem]["src"]).with_suffix(".json")) for stem in REC) if Path(s).is_file()]
+
+
+def get_ingest_each(wildcards, input, output):
+    """One ingest call per recording, with its manifest's kind, pressure and ramp angle."""
+    return _each([{"src": REC[s]["src"], "out_csv": c, "out_releases": r, "qc_png": q, "kind": REC[s]["kind"],
+                   "pressure_kpa": str(REC[s]["pressure_kpa"]), "ramp_angle_deg": str(REC[s]["ramp_angle_deg"])}
+                  for s, c, r, q in zip(REC, output.csv, output.releases, output.qc)])
 
 
 def get_stand_recording(wildcards):
@@ -299,3 +306,46 @@ def get_runs_at_pressure(wildcards):
 def get_other_runs(wildcards):
     """The ingested ramp runs whose pooled diagnosis scores run `stem` out of sample."""
     return _ingested(CAMPAIGN.other_runs(wildcards.stem))
+
+
+##### the batched rules' items (roboball stage NAME --each) #####
+
+def _each(items):
+    return json.dumps(items, sort_keys=True)
+
+
+def get_shell_sim_each(wildcards, input, output):
+    """One shell_sim call per shell recording, with the contact model of the job."""
+    return _each([{"releases": r, "regression": input.regression, "contact": wildcards.contact,
+                   "hydro_fit": " ".join(input.hydro_fit), "duration": config["shell"]["sim_duration_s"],
+                   "dt": config["shell"]["dt_s"], "out_csv": o}
+                  for r, o in zip(input.releases, output)])
+
+
+def get_sweep_sim_each(wildcards, input, output):
+    """One hydroelastic shell_sim call per shell recording at the sweep case's scales."""
+    modulus, dissipation = SWEEP[wildcards.case]
+    return _each([{"releases": r, "regression": input.regression, "contact": "hydroelastic",
+                   "modulus_scale": modulus, "dissipation_scale": dissipation,
+                   "duration": config["shell"]["sim_duration_s"], "dt": config["shell"]["dt_s"], "out_csv": o}
+                  for r, o in zip(input.releases, output)])
+
+
+def get_ramp_sim_each(wildcards, input, output):
+    """One ramp_sim call per ramp run with the contact model of the job, the campaign's Majd fits
+    and its posterior draws."""
+    modulus, dissipation = get_ramp_scales(wildcards)
+    friction = {f"friction_{j}": input[j] for j in ("steer", "drive") if j in RAMP_FRICTION}
+    return _each([{"recording": c, "releases": r, "regression": " ".join(input.regression),
+                   "contact": wildcards.contact, "hydro_fit": " ".join(input.hydro_fit), **friction,
+                   "modulus_scale": modulus, "dissipation_scale": dissipation, "dt": config["ramp"]["dt_s"],
+                   "posterior_draws": config["ramp"]["posterior_draws"], "seed": config["seed"],
+                   "out_csv": pme, "out_trace": trace}
+                  for c, r, pme, trace in zip(input.csv, input.releases, output.pme, output.trace)])
+
+
+def get_ramp_diagnosed_each(wildcards, input, output):
+    """One ramp_diagnosed call per ramp run, with the diagnosis that held that run out."""
+    return _each([{"recording": c, "releases": r, "diagnoses": [d], "dt": config["ramp"]["dt_s"],
+                   "out_csv": pme, "out_trace": trace}
+                  for c, r, d, pme, trace in zip(input.csv, input.releases, input.diagnoses, output.pme, output.trace)])

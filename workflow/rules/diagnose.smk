@@ -63,19 +63,20 @@ rule diagnose_ramp_heldout:
         "{ROBOBALL} diagnose-recording --recording {input.csv} {params.friction} --out-dir results/diagnose/heldout/{wildcards.stem} > {log} 2>&1"
 
 
-rule ramp_diagnosed:
-    input:
-        csv="results/ingest/{stem}.csv",
-        releases="results/ingest/{stem}.releases.json",
-        diagnoses="results/diagnose/heldout/{stem}/diagnosis.json",
-    output:
-        pme="results/ramp/diagnosed/{stem}.csv",
-        trace="results/ramp/diagnosed/{stem}.trace.csv",
-    params:
-        code=CODE["ramp-diagnosed"],
-        dt=config["ramp"]["dt_s"],
-    log: "results/logs/ramp/diagnosed/{stem}.log"
-    benchmark: "results/benchmarks/ramp/diagnosed/{stem}.tsv"
-    shell:
-        "{ROBOBALL} ramp-diagnosed --recording {input.csv} --releases {input.releases} --diagnoses {input.diagnoses} "
-        "--dt {params.dt} --out-csv {output.pme} --out-trace {output.trace} > {log} 2>&1"
+# Every run's descent with the diagnosed model, in one job (a few seconds each; roboball stage
+# NAME --each): each run takes its effects from the diagnosis of the other runs at its pressure.
+if RAMP:
+    rule ramp_diagnosed:
+        input:
+            csv=expand("results/ingest/{stem}.csv", stem=RAMP),
+            releases=expand("results/ingest/{stem}.releases.json", stem=RAMP),
+            diagnoses=expand("results/diagnose/heldout/{stem}/diagnosis.json", stem=RAMP),
+        output:
+            pme=expand("results/ramp/diagnosed/{stem}.csv", stem=RAMP),
+            trace=expand("results/ramp/diagnosed/{stem}.trace.csv", stem=RAMP),
+        params:
+            code=CODE["ramp-diagnosed"],
+            each=get_ramp_diagnosed_each,
+        log: "results/logs/ramp/diagnosed.log"
+        benchmark: "results/benchmarks/ramp/diagnosed.tsv"
+        shell: "{ROBOBALL} ramp-diagnosed --each {params.each:q} > {log} 2>&1"

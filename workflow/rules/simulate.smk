@@ -6,40 +6,36 @@
 # and (issue 27, Fig. S2) the coupled steer test of the real repeats against every shell model.
 
 
-rule shell_sim:
-    input:
-        releases="results/ingest/{stem}.releases.json",
-        regression="results/identify/shell_regression.csv",
-        hydro_fit=get_hydro_fit,
-    output: "results/shell_sim/{contact}/{stem}.csv"
-    params:
-        code=CODE["shell-sim"],
-        duration=config["shell"]["sim_duration_s"],
-        dt=config["shell"]["dt_s"],
-    wildcard_constraints: contact="point|injected|hydroelastic|hydro_tuned"
-    log: "results/logs/shell_sim/{contact}/{stem}.log"
-    benchmark: "results/benchmarks/shell_sim/{contact}/{stem}.tsv"
-    shell:
-        "{ROBOBALL} shell-sim --releases {input.releases} --regression {input.regression} --contact {wildcards.contact} "
-        "--hydro-fit '{input.hydro_fit}' --duration {params.duration} --dt {params.dt} --out-csv {output} > {log} 2>&1"
+# The shell and ramp simulations run a second or a few each: one job per contact model (sweep
+# case) runs all recordings, so that Python, pandas and Drake start once per model, not per run
+# (roboball stage NAME --each; the items are the per-recording calls, unchanged).
+if SHELL:
+    rule shell_sim:
+        input:
+            releases=expand("results/ingest/{stem}.releases.json", stem=SHELL),
+            regression="results/identify/shell_regression.csv",
+            hydro_fit=get_hydro_fit,
+        output: expand("results/shell_sim/{{contact}}/{stem}.csv", stem=SHELL)
+        params:
+            code=CODE["shell-sim"],
+            each=get_shell_sim_each,
+        wildcard_constraints: contact="point|injected|hydroelastic|hydro_tuned"
+        log: "results/logs/shell_sim/{contact}.log"
+        benchmark: "results/benchmarks/shell_sim/{contact}.tsv"
+        shell: "{ROBOBALL} shell-sim --each {params.each:q} > {log} 2>&1"
 
 
-rule sweep_sim:
-    input:
-        releases="results/ingest/{stem}.releases.json",
-        regression="results/identify/shell_regression.csv",
-    output: "results/sweep/{case}/{stem}.csv"
-    params:
-        code=CODE["shell-sim"],
-        scales=lambda w: SWEEP[w.case],
-        duration=config["shell"]["sim_duration_s"],
-        dt=config["shell"]["dt_s"],
-    log: "results/logs/sweep/{case}/{stem}.log"
-    benchmark: "results/benchmarks/sweep/{case}/{stem}.tsv"
-    shell:
-        "{ROBOBALL} shell-sim --releases {input.releases} --regression {input.regression} --contact hydroelastic "
-        "--modulus-scale {params.scales[0]} --dissipation-scale {params.scales[1]} "
-        "--duration {params.duration} --dt {params.dt} --out-csv {output} > {log} 2>&1"
+    rule sweep_sim:
+        input:
+            releases=expand("results/ingest/{stem}.releases.json", stem=SHELL),
+            regression="results/identify/shell_regression.csv",
+        output: expand("results/sweep/{{case}}/{stem}.csv", stem=SHELL)
+        params:
+            code=CODE["shell-sim"],
+            each=get_sweep_sim_each,
+        log: "results/logs/sweep/{case}.log"
+        benchmark: "results/benchmarks/sweep/{case}.tsv"
+        shell: "{ROBOBALL} shell-sim --each {params.each:q} > {log} 2>&1"
 
 
 rule shell_summary:
@@ -61,31 +57,24 @@ rule sweep_summary:
     shell: "{ROBOBALL} summarise --inputs {input} --out-csv {output} > {log} 2>&1"
 
 
-rule ramp_sim:
-    input:
-        csv="results/ingest/{stem}.csv",
-        releases="results/ingest/{stem}.releases.json",
-        regression=[REGRESSION_CSV] if REGRESSION else [],
-        hydro_fit=get_hydro_fit,
-        **RAMP_FRICTION,
-    output:
-        pme="results/ramp/{contact}/{stem}.csv",
-        trace="results/ramp/{contact}/{stem}.trace.csv",
-    params:
-        code=CODE["ramp-sim"],
-        scales=get_ramp_scales,
-        dt=config["ramp"]["dt_s"],
-        draws=config["ramp"]["posterior_draws"],
-        seed=config["seed"],
-        friction=get_ramp_friction_args,
-    wildcard_constraints: contact="point|injected|hydroelastic|hydro_tuned"
-    log: "results/logs/ramp/{contact}/{stem}.log"
-    benchmark: "results/benchmarks/ramp/{contact}/{stem}.tsv"
-    shell:
-        "{ROBOBALL} ramp-sim --recording {input.csv} --releases {input.releases} --regression '{input.regression}' "
-        "--contact {wildcards.contact} --hydro-fit '{input.hydro_fit}' {params.friction} "
-        "--modulus-scale {params.scales[0]} --dissipation-scale {params.scales[1]} --dt {params.dt} "
-        "--posterior-draws {params.draws} --seed {params.seed} --out-csv {output.pme} --out-trace {output.trace} > {log} 2>&1"
+if RAMP:
+    rule ramp_sim:
+        input:
+            csv=expand("results/ingest/{stem}.csv", stem=RAMP),
+            releases=expand("results/ingest/{stem}.releases.json", stem=RAMP),
+            regression=[REGRESSION_CSV] if REGRESSION else [],
+            hydro_fit=get_hydro_fit,
+            **RAMP_FRICTION,
+        output:
+            pme=expand("results/ramp/{{contact}}/{stem}.csv", stem=RAMP),
+            trace=expand("results/ramp/{{contact}}/{stem}.trace.csv", stem=RAMP),
+        params:
+            code=CODE["ramp-sim"],
+            each=get_ramp_sim_each,
+        wildcard_constraints: contact="point|injected|hydroelastic|hydro_tuned"
+        log: "results/logs/ramp/{contact}.log"
+        benchmark: "results/benchmarks/ramp/{contact}.tsv"
+        shell: "{ROBOBALL} ramp-sim --each {params.each:q} > {log} 2>&1"
 
 
 # The paper's three contact models, the tuned hydroelastic one and the diagnosed model

@@ -2,11 +2,18 @@
 
 The stage's arguments are read off the function's signature: a parameter annotated `list`
 takes several values; `float`/`int` are converted; everything else is a string.
+
+`roboball stage NAME --each JSON` runs the stage once per item of a JSON list of {param: value}
+objects, in one process: the rules batch their seconds-long jobs this way (a job's start-up,
+Python with NumPy, pandas, SciPy and Drake, costs about as much as one of its simulations).  Each
+item goes through the same argument parser as a single call, and runs the same function.
 """
 from __future__ import annotations
 
 import argparse
 import inspect
+import json
+import sys
 
 from roboball.cli.main import OneLineArgumentParser, register_command
 from roboball.pipeline.codedeps import STAGE_MODULES   # one list: the CLI's search order and the rules' fingerprints
@@ -38,13 +45,8 @@ def _stages(wanted: str | None = None) -> dict:
     return out
 
 
-def _run_stage(args) -> int:
-    stages = _stages(args.stage)
-    fn = stages.get(args.stage)
-    if fn is None:
-        from roboball.errors import RoboballError
-        raise RoboballError(f"unknown stage '{args.stage}' (stages: {', '.join(sorted(stages))})")
-    p = OneLineArgumentParser(prog=f"roboball stage {args.stage}", description=fn.__doc__)
+def _parser(stage: str, fn) -> OneLineArgumentParser:
+    p = OneLineArgumentParser(prog=f"roboball stage {stage}", description=fn.__doc__)
     for name, par in inspect.signature(fn).parameters.items():
         ann = str(par.annotation)
         kw = {"required": par.default is inspect.Parameter.empty, "dest": name}
@@ -57,8 +59,49 @@ def _run_stage(args) -> int:
         elif ann.startswith("int"):
             kw["type"] = int
         p.add_argument("--" + name.replace("_", "-"), **kw)
-    ns = p.parse_args(args.rest)
-    fn(**vars(ns))
+    return p
+
+
+def _item_argv(stage: str, k: int, item) -> list[str]:
+    """The command line of one `--each` item: {param: value or [values]} -> ["--param", "value", ...]."""
+    from roboball.errors import RoboballError
+    if not isinstance(item, dict):
+        raise RoboballError(f"roboball stage {stage} --each: item {k} is not an object of parameters")
+    argv = []
+    for name, value in item.items():
+        values = value if isinstance(value, list) else [value]
+        if any(isinstance(v, (dict, list)) for v in values):
+            raise RoboballError(f"roboball stage {stage} --each: item {k}, field '{name}': not a value or a list of values")
+        argv += ["--" + name.replace("_", "-")] + [v if isinstance(v, str) else json.dumps(v) for v in values]
+    return argv
+
+
+def _run_stage(args) -> int:
+    stages = _stages(args.stage)
+    fn = stages.get(args.stage)
+    if fn is None:
+        from roboball.errors import RoboballError
+        raise RoboballError(f"unknown stage '{args.stage}' (stages: {', '.join(sorted(stages))})")
+    p = _parser(args.stage, fn)
+    if args.rest[:1] == ["--each"]:
+        from roboball.errors import RoboballError
+        if len(args.rest) != 2:
+            raise RoboballError(f"roboball stage {args.stage} --each takes one JSON list and nothing else")
+        try:
+            items = json.loads(args.rest[1])
+        except ValueError as exc:
+            raise RoboballError(f"roboball stage {args.stage} --each: not JSON ({exc})") from None
+        if not isinstance(items, list):
+            raise RoboballError(f"roboball stage {args.stage} --each: not a JSON list")
+        calls = []
+        for k, item in enumerate(items, start=1):          # a bad item is named before any runs
+            p.prog = f"roboball stage {args.stage} --each (item {k})"
+            calls.append(vars(p.parse_args(_item_argv(args.stage, k, item))))
+        for k, call in enumerate(calls, start=1):      # every item parsed before the first runs
+            print(f"roboball stage {args.stage}: item {k} of {len(calls)}", file=sys.stderr, flush=True)
+            fn(**call)
+        return 0
+    fn(**vars(p.parse_args(args.rest)))
     return 0
 
 
