@@ -124,3 +124,30 @@ def test_ingest_usage_mistakes_are_one_line(tmp_path):
     assert r.stderr.count("\n") == 1 and "required: --out-csv" in r.stderr and "Traceback" not in r.stderr
     r = ingest(tmp_path / "nowhere.csv", tmp_path / "out")
     assert r.returncode == 2 and "nowhere.csv: file: not found" in one_error_line(r)
+
+
+def test_a_batch_is_its_single_calls_in_one_process_and_a_bad_item_runs_none(tmp_path):
+    """`roboball stage NAME --each JSON` (the batched rules): the same bytes as one call per item;
+    an item the stage cannot take is named in one line before any item runs."""
+    srcs = [REPO / "raw_data" / "shell_rock" / "shell_rock_6.9kpa_r1.csv", REPO / "raw_data" / "steer_stand" / "steer_stand_r1.csv"]
+
+    def item(src, out):
+        return {"src": str(src), "out_csv": str(out / f"{src.stem}.csv"), "out_releases": str(out / f"{src.stem}.releases.json"),
+                "qc_png": str(out / f"{src.stem}.png")}
+
+    (tmp_path / "batch").mkdir()
+    r = roboball("stage", "ingest", "--each", json.dumps([item(s, tmp_path / "batch") for s in srcs]))
+    assert r.returncode == 0, r.stderr
+    for s in srcs:
+        assert ingest(s, tmp_path / "one").returncode == 0
+        for ext in (".csv", ".releases.json", ".png"):
+            assert (tmp_path / "batch" / f"{s.stem}{ext}").read_bytes() == (tmp_path / "one" / f"{s.stem}{ext}").read_bytes()
+
+    (tmp_path / "bad").mkdir()
+    bad = [item(srcs[0], tmp_path / "bad"), {"src": str(srcs[1]), "out_csv": str(tmp_path / "bad" / "x.csv")}]
+    r = roboball("stage", "ingest", "--each", json.dumps(bad))
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and "Traceback" not in r.stderr
+    assert "(item 2)" in r.stderr and "--out-releases" in r.stderr
+    assert not list((tmp_path / "bad").iterdir())
+    r = roboball("stage", "ingest", "--each", "[{\"src\": [1, [2]]}]")
+    assert r.returncode == 2 and "item 1, field 'src'" in one_error_line(r)
