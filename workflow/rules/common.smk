@@ -235,24 +235,17 @@ def pressure_label(p):
     return "-" if p != p else f"{p:04.1f}"
 
 
-def qc_labels(stem):
+def qc_labels(wildcards):
     """The QC plot's labels: kind, pressure (kPa), recording, in the report's sort order."""
-    r = REC[stem]
-    return {"kind": r["kind"], "pressure (kPa)": pressure_label(r["pressure_kpa"]), "recording": stem}
+    r = REC[wildcards.stem]
+    return {"kind": r["kind"], "pressure (kPa)": pressure_label(r["pressure_kpa"]), "recording": wildcards.stem}
 
 
 ##### input functions #####
 
-def get_sidecars(wildcards):
-    """The recordings' sidecars (kind, pressure, ramp angle, ramp exit), those there are."""
-    return [s for s in (str(Path(REC[stem]["src"]).with_suffix(".json")) for stem in REC) if Path(s).is_file()]
-
-
-def get_ingest_each(wildcards, input, output):
-    """One ingest call per recording, with its manifest's kind, pressure and ramp angle."""
-    return _each([{"src": REC[s]["src"], "out_csv": c, "out_releases": r, "qc_png": q, "kind": REC[s]["kind"],
-                   "pressure_kpa": str(REC[s]["pressure_kpa"]), "ramp_angle_deg": str(REC[s]["ramp_angle_deg"])}
-                  for s, c, r, q in zip(REC, output.csv, output.releases, output.qc)])
+def get_sidecar(wildcards):
+    """The recording's sidecar (kind, pressure, ramp angle, ramp exit), when it has one."""
+    return [s for s in [str(Path(REC[wildcards.stem]["src"]).with_suffix(".json"))] if Path(s).is_file()]
 
 
 def get_stand_recording(wildcards):

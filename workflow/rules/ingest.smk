@@ -1,25 +1,29 @@
 # Stage 1: validate and normalise every recording, find its releases, QC plot; decay per release.
-# A recording takes a fraction of a second; starting Python with pandas, SciPy and matplotlib takes
-# over a second: one job reads them all, one call per recording (roboball stage NAME --each).
+# Each recording is ingested by its own job, so that an edited or added recording reruns only what
+# depends on it; the decays, a fraction of a second each, share one job (roboball stage NAME --each).
 
 
 rule ingest:
     input:
-        src=[REC[s]["src"] for s in REC],
-        sidecars=get_sidecars,
+        src=lambda w: REC[w.stem]["src"],
+        sidecar=get_sidecar,
     output:
-        csv=expand("results/ingest/{stem}.csv", stem=REC),
-        sidecar=expand("results/ingest/{stem}.json", stem=REC),
-        releases=expand("results/ingest/{stem}.releases.json", stem=REC),
-        qc=[report(f"results/qc/{s}.png", category="1 Ingest", caption="../report/qc.rst", labels=qc_labels(s))
-            for s in REC],
-        qc_pdf=expand("results/qc/{stem}.pdf", stem=REC),     # written beside each PNG (roboball.figures.style.save)
+        csv="results/ingest/{stem}.csv",
+        sidecar="results/ingest/{stem}.json",
+        releases="results/ingest/{stem}.releases.json",
+        qc=report("results/qc/{stem}.png", category="1 Ingest", caption="../report/qc.rst", labels=qc_labels),
+        qc_pdf="results/qc/{stem}.pdf",           # written beside the PNG (roboball.figures.style.save)
     params:
         code=CODE["ingest"],
-        each=get_ingest_each,
-    log: "results/logs/ingest.log"
-    benchmark: "results/benchmarks/ingest.tsv"
-    shell: "{ROBOBALL} ingest --each {params.each:q} > {log} 2>&1"
+        kind=lambda w: REC[w.stem]["kind"],
+        pressure=lambda w: REC[w.stem]["pressure_kpa"],
+        angle=lambda w: REC[w.stem]["ramp_angle_deg"],
+    log: "results/logs/ingest/{stem}.log"
+    benchmark: "results/benchmarks/ingest/{stem}.tsv"
+    shell:
+        "{ROBOBALL} ingest --src {input.src} --out-csv {output.csv} --out-releases {output.releases} "
+        "--qc-png {output.qc} --kind {params.kind} --pressure-kpa '{params.pressure}' --ramp-angle-deg '{params.angle}' "
+        "> {log} 2>&1"
 
 
 if SHELL_ALL:
