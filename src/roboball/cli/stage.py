@@ -76,6 +76,26 @@ def _item_argv(stage: str, k: int, item) -> list[str]:
     return argv
 
 
+def _run_each(stage: str, fn, p: OneLineArgumentParser, rest: list[str]) -> None:
+    """`--each JSON`: parse every item, then run them in order in this process."""
+    from roboball.errors import RoboballError
+    if len(rest) != 2:
+        raise RoboballError(f"roboball stage {stage} --each takes one JSON list and nothing else")
+    try:
+        items = json.loads(rest[1])
+    except ValueError as exc:
+        raise RoboballError(f"roboball stage {stage} --each: not JSON ({exc})") from None
+    if not isinstance(items, list):
+        raise RoboballError(f"roboball stage {stage} --each: not a JSON list")
+    calls = []
+    for k, item in enumerate(items, start=1):          # a bad item is named before any item runs
+        p.prog = f"roboball stage {stage} --each (item {k})"
+        calls.append(vars(p.parse_args(_item_argv(stage, k, item))))
+    for k, call in enumerate(calls, start=1):
+        print(f"roboball stage {stage}: item {k} of {len(calls)}", file=sys.stderr, flush=True)
+        fn(**call)
+
+
 def _run_stage(args) -> int:
     stages = _stages(args.stage)
     fn = stages.get(args.stage)
@@ -84,24 +104,9 @@ def _run_stage(args) -> int:
         raise RoboballError(f"unknown stage '{args.stage}' (stages: {', '.join(sorted(stages))})")
     p = _parser(args.stage, fn)
     if args.rest[:1] == ["--each"]:
-        from roboball.errors import RoboballError
-        if len(args.rest) != 2:
-            raise RoboballError(f"roboball stage {args.stage} --each takes one JSON list and nothing else")
-        try:
-            items = json.loads(args.rest[1])
-        except ValueError as exc:
-            raise RoboballError(f"roboball stage {args.stage} --each: not JSON ({exc})") from None
-        if not isinstance(items, list):
-            raise RoboballError(f"roboball stage {args.stage} --each: not a JSON list")
-        calls = []
-        for k, item in enumerate(items, start=1):          # a bad item is named before any runs
-            p.prog = f"roboball stage {args.stage} --each (item {k})"
-            calls.append(vars(p.parse_args(_item_argv(args.stage, k, item))))
-        for k, call in enumerate(calls, start=1):      # every item parsed before the first runs
-            print(f"roboball stage {args.stage}: item {k} of {len(calls)}", file=sys.stderr, flush=True)
-            fn(**call)
-        return 0
-    fn(**vars(p.parse_args(args.rest)))
+        _run_each(args.stage, fn, p, args.rest)
+    else:
+        fn(**vars(p.parse_args(args.rest)))
     return 0
 
 
