@@ -157,3 +157,63 @@ def test_the_same_experiment_is_recognised():
     assert not same_experiment(a, dict(a, settle_s=14.2))
     assert not same_experiment(a, dict(a, release_rad=[-1.136]))
     assert not same_experiment(a, dict(a, steer_joint="free"))
+
+
+# ---- a shell release: a viscous loss or the quadratic drag that takes as much energy per swing ----
+SHELL_NOISE = 4e-4      # rad: the test bed's angle noise
+SHELL_RELEASE = 0.15    # rad from rest, logged 2 s: too few speeds to tell the laws apart
+
+
+def _shell_diagnosis(tmp_path):
+    """A shell log the reduced model makes with a viscous loss (damping ratio 0.015), and a
+    diagnosis folder that chose it and lists the equivalent quadratic drag (c2 = 3 pi c / (8 omega A),
+    the same energy per swing at the release's amplitude)."""
+    from roboball.reduced.models import model_for
+
+    m = model_for("shell_rock")
+    omega = np.sqrt(m.k_g / m.m_eq)
+    c = 0.015 * 2 * m.m_eq * omega
+    c2 = 3 * np.pi * c / (8 * omega * SHELL_RELEASE)
+    n = int(2.0 / 0.002)
+    Q, _ = m.simulate(np.array([m.rest + SHELL_RELEASE]), {"viscous_damping.c": np.array([c])}, n)
+    t = np.arange(-1.0, 2.0, 0.011)           # held 1 s, then let go at t = 0
+    y = np.interp(t, np.arange(n + 1) * 0.002, Q[:, 0]) + np.random.default_rng(47).normal(0.0, SHELL_NOISE, t.size)
+    t = t + 1.0
+    rec = write_recording(tmp_path / "shell.csv", pd.DataFrame({"time_s": t, "pipe_angle_rad": y}),
+                          {"kind": "shell_rock", "pressure_kpa": 20.7})
+    start = {"q0@0": m.rest + SHELL_RELEASE, "ts@0": 0.0}
+    final, alt = dict(start, **{"viscous_damping.c": c}), dict(start, **{"quadratic_drag.c2": c2})
+    ci, alt_ci = {"viscous_damping.c": [0.8 * c, 1.2 * c]}, {"quadratic_drag.c2": [0.8 * c2, 1.2 * c2]}
+    folder = tmp_path / "diag"
+    folder.mkdir()
+    (folder / "diagnosis.json").write_text(json.dumps({
+        "kind": "shell_rock", "verdict": "augmented", "located": [], "baseline": {"fitted": {}},
+        "missing_physics": [{"effect": "viscous_damping", "parameters": {"c": c}, "ci95": {"c": ci["viscous_damping.c"]},
+                             "alternatives": [{"effect": "quadratic_drag", "parameters": {"c2": c2},
+                                               "ci95": {"c2": alt_ci["quadratic_drag.c2"]}}]}],
+        "fit": {"rmse_after": SHELL_NOISE, "units": "rad"}}))
+    (folder / "details.json").write_text(json.dumps({
+        "recording": str(rec), "fit_noise": SHELL_NOISE, "final_values": final, "ci95": ci,
+        "alternatives": {"viscous_damping": [{"effect": "quadratic_drag", "values": alt, "ci95": alt_ci}]}}))
+    return m, folder
+
+
+def test_large_shell_releases_separate_viscous_from_quadratic_loss(tmp_path):
+    """The simulations: the two laws agree at the user's amplitude and part away from it; the
+    ranking: the largest release a hand makes (0.6 rad) comes first."""
+    from roboball.design.rank import experiments
+
+    m, folder = _shell_diagnosis(tmp_path)
+    src = read_source(folder)
+    choice = next(c for c in src.choices if c.about == "effect")
+    assert {c.label for c in choice.candidates} == {"viscous_damping", "quadratic_drag"}
+    g = grid(src, choice, None)
+    a, b = g.central
+    rms = np.sqrt(np.mean((g.central[a] - g.central[b]) ** 2, axis=1))
+    amp = np.abs(g.releases - m.rest)
+    at_user = rms[np.argmin(np.abs(amp - SHELL_RELEASE))]
+    assert at_user < 2 * SHELL_NOISE                          # tied where the log was made
+    assert rms[np.argmax(amp)] > 5 * at_user and rms[np.argmax(amp)] > 5 * SHELL_NOISE
+    assert rms[np.argmin(amp)] > at_user                      # and at smaller swings they part too
+    best = experiments(src, choice, g, m.rest)[0]
+    assert all(abs(r) == pytest.approx(0.6) for r in best["release_from_rest_rad"]) and best["settles"], best

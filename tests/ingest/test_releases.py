@@ -2,6 +2,7 @@
 recordings without a release, ramp starts."""
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -507,3 +508,23 @@ def test_a_log_that_starts_still_and_never_moves_has_no_release(start):
     assert recording_releases(rec) == []
     with pytest.raises(RoboballError, match=r"^runs/still.csv: steer_angle_rad: no release found"):
         require_releases(rec)
+
+
+
+@pytest.mark.parametrize("free_s", [3.5, 3.7, 3.9])
+def test_record_cut_mid_swing_is_no_turning_point(free_s):
+    """A nearly undamped shell release (0.6 rad from rest, damping ratio 0.015, half period
+    1.37 s) logged for 1.5 swings: the record ends on the way, and its last point is no turning
+    point.  Counted as one, it put the rest 0.02-0.08 rad off, and at 3.5-3.7 s the release was
+    not found at all (roboball design's closed loop: the hand's move read as a release instead)."""
+    rest, offset, zeta, omega, rate, t_r = -0.033, 0.6, 0.015, 2.29, 90.0, 3.1
+    t = np.arange(0.0, t_r + free_s, 1.0 / rate)
+    s = np.clip((t - 1.0) / 0.9, 0.0, 1.0)          # at rest 1 s, moved 0.9 s, held 1.2 s
+    y = rest + offset * (10 * s ** 3 - 15 * s ** 4 + 6 * s ** 5)
+    y[t > t_r] = rest + free_response(t[t > t_r] - t_r, offset, zeta, omega)
+    y = y + np.random.default_rng(0).normal(0.0, 0.0004, len(t))
+    rel = find_releases(t, y, "shell_rock")
+    assert len(rel) == 1
+    assert rel[0].t_release_s == pytest.approx(t_r, abs=0.05)
+    assert rel[0].y_rest == pytest.approx(rest, abs=0.003)
+    assert rel[0].half_period_s == pytest.approx(math.pi / omega, rel=0.05)

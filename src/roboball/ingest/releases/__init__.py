@@ -23,7 +23,8 @@ same code works for a 1-mrad-quantised pendulum log at 80 Hz and a 100 Hz shell 
      turning point of an ongoing oscillation);
    - it lies further than 20 sigma from the final rest of the motion that follows (the level
      the body settles at after its last swing, unless its swings do not swing about that
-     level: then a hand's hold, and the rest is extrapolated from their decay), and its
+     level: then a hand's hold, and the rest is extrapolated from their decay, leaving out
+     a last point where the record ends mid-swing, which is no turning point), and its
      offset is at least 5% of the largest release in the file (a hand's tremor while it
      holds the body makes tiny "releases" of its own);
    - the body was held in place: within 5% of the offset of where it is let go;
