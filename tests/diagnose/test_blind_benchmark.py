@@ -32,6 +32,9 @@ def test_large_swing_cases_with_a_noisy_sensor_are_drawn_apart_and_leave_the_oth
         assert -1.25 <= lo <= -1.1 and 0.9 <= hi <= 0.97
         assert blind_cases.noise_level("steer_stand", c) == pytest.approx(2.02e-3, rel=0.01)
         assert blind_cases.sensors(c)["angle_noise_rad"] == 2e-3
+        for e, ranges in blind_cases.LARGE_SWINGS["ranges"].items():
+            for p, (lo, hi) in ranges.items():
+                assert lo <= c["effects"][e][p] <= hi
 
 
 def test_a_concealed_effect_below_the_noise_is_redrawn_and_no_other_case_changes():
