@@ -51,7 +51,7 @@ from pathlib import Path
 import numpy as np
 
 import real_like
-from blind_cases import FREE_S, SIGNAL, VISIBLE, confusion, draw_cases, magnitudes, noise_level, score
+from blind_cases import FREE_S, SIGNAL, VISIBLE, confusion, draw_cases, magnitudes, noise_level, score, sensors
 
 
 def _dense(case: dict):
@@ -82,13 +82,12 @@ def _dense(case: dict):
 
 def _write(dense, meta, rng, folder: Path, case: dict | None = None) -> Path:
     from roboball.ingest.recording import write_recording
-    from roboball.testbed.physics import load_truth
     from roboball.testbed.sensors import measure
 
     if case is not None and "sensor" in case:       # a real-like case (real_like.py)
         rec = real_like.sense(dense, case, rng)
     else:
-        rec = measure(dense, load_truth()["sensors"], rng)
+        rec = measure(dense, sensors(case or {}), rng)
     path = folder / "recording.csv"
     write_recording(path, rec, meta)
     return path
@@ -109,7 +108,7 @@ def visibility(case: dict, dense=None) -> dict:
     if "sensor" in case:                            # a real-like case (real_like.py)
         noise = real_like.noise_level(case)
     else:
-        noise = noise_level(case["kind"])
+        noise = noise_level(case["kind"], case)
     out = {}
     for e in case["effects"]:
         other = _dense(dict(case, effects={k: v for k, v in case["effects"].items() if k != e}))[0]

@@ -19,6 +19,24 @@ def test_draw_is_reproducible_and_spans_every_kind_and_set():
     assert blind_cases.draw_cases(7) != a
 
 
+def test_large_swing_cases_with_a_noisy_sensor_are_drawn_apart_and_leave_the_others_unchanged():
+    """Issue 48: Coulomb friction with a quadratic drag, two releases near the steer joint's
+    limits, a 2 mrad sensor; drawn after the 40 cases from a stream of their own."""
+    cases = blind_cases.draw_cases(6)
+    large = [c for c in cases if "angle_noise_rad" in c]
+    assert len(large) == blind_cases.LARGE_SWINGS["n"] and cases[-len(large):] == large and len(cases) == 40 + len(large)
+    assert len({c["id"] for c in cases}) == len(cases)
+    for c in large:
+        assert c["kind"] == "steer_stand" and set(c["effects"]) == {"coulomb_friction", "quadratic_drag"}
+        lo, hi = c["releases"]
+        assert -1.25 <= lo <= -1.1 and 0.9 <= hi <= 0.97
+        assert blind_cases.noise_level("steer_stand", c) == pytest.approx(2.02e-3, rel=0.01)
+        assert blind_cases.sensors(c)["angle_noise_rad"] == 2e-3
+        for e, ranges in blind_cases.LARGE_SWINGS["ranges"].items():
+            for p, (lo, hi) in ranges.items():
+                assert lo <= c["effects"][e][p] <= hi
+
+
 def test_a_concealed_effect_below_the_noise_is_redrawn_and_no_other_case_changes():
     """Seed 6's steer_stand-13 drew stiction of 0.88 N m above 0.18 N m of kinetic friction:
     the swings never come to rest in the recording, and the breakaway torque, acting only for an

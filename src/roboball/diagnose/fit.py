@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from roboball.physics import effects as fx
+from roboball.diagnose.bounded import applies as bounded_grid, best_costs
 from roboball.diagnose.data import Prepared
 from roboball.diagnose.sensor import LAG_BOUNDS, LAG_KEY, LAG_TYPICAL, lag_grid, lag_of
 from roboball.reduced.base import DT, ReducedModel
@@ -110,6 +111,7 @@ class Engine:
         self.sensor: dict = {}
         self.sensor_free: list = []
         self.info[LAG_KEY] = (LAG_TYPICAL, *LAG_BOUNDS)
+        self.diverged = DIVERGED
         self.n_sims = 0
         self.n_calls = 0
         self.sim_time = 0.0
@@ -158,8 +160,9 @@ class Engine:
         self.n_calls += 1
         return out
 
-    def _simulate(self, items, dt: float):
-        """(y, ydot) at each item's window samples from one batched simulation of `items`."""
+    def batch_arrays(self, items):
+        """The model's parameters by name, the release values and the instants' shifts of
+        `items` ((values, window) each), as arrays over the batch."""
         B = len(items)
         P = {k: np.fromiter((v.get(k, d) for v, _ in items), float, B)
              for k, d in ((k, self.defaults.get(k, 0.0)) for k in self.p_keys)}
@@ -167,6 +170,12 @@ class Engine:
         ts = np.fromiter((v.get(f"ts@{w}", 0.0) for v, w in items), float, B)
         for h in self.hidden:
             P[h.name] = np.fromiter((v.get(f"{h.name}@{w}", h.start) for v, w in items), float, B)
+        return P, q0, ts
+
+    def _simulate(self, items, dt: float):
+        """(y, ydot) at each item's window samples from one batched simulation of `items`."""
+        B = len(items)
+        P, q0, ts = self.batch_arrays(items)
         lag = np.fromiter((lag_of(v) for v, _ in items), float, B) if self.sensor else None
         horizon = max(self.windows[w].duration for _, w in items) + self.max_shift + 0.05
         n_steps = int(math.ceil(horizon / dt)) + 1
@@ -457,10 +466,13 @@ class Engine:
             start = len(all_items)
             all_items.extend((v, w) for v in cands for w in used)
             spans.append((start, cands, used, prob))
-        outs = self.predict(all_items)
+        if bounded_grid(self):       # hopeless starts are not simulated to the end (diagnose.bounded)
+            every = best_costs(self, all_items, spans)
+        else:
+            outs = self.predict(all_items)
+            every = [self._costs(outs, start, len(cands), used, prob) for start, cands, used, prob in spans]
         best = []
-        for start, cands, used, prob in spans:
-            costs = self._costs(outs, start, len(cands), used, prob)
+        for (start, cands, used, prob), costs in zip(spans, every):
             j = int(np.argmin(costs))
             best.append(dict(cands[j], _cost=float(costs[j])))
         return best

@@ -197,14 +197,15 @@ def _selection(d: Diagnosis) -> list:
     lines = ["## Selection", "", "Each round grows each of the best models so far (up to "
              f"{s.beam_width} per size, the baseline first) by every candidate it lacks and refits by simulation "
              f"error; the {s.top_k} grown models of lowest BIC that beat the best model kept so far are "
-             "cross-validated and judged effect by effect. A model is kept when every one of its effects, against "
+             f"cross-validated and judged effect by effect, and the next {s.top_k} in turn while none judged passes. A model is kept when every one of its effects, against "
              f"the same model without it, lowers the BIC by more than {s.bic_min:g}, lowers the held-out RMS by more "
              f"than {s.cv_gain:.0%}, lowers the held-out mean square by at least {s.material_noise:g} noise variances "
              "(materiality), and has 95% intervals of its magnitude (and of any parameter at whose zero it would "
              "be a simpler effect) that exclude zero (the model without it at the best fit found, also refitted from "
              "the larger model's values); the kept model of lowest BIC is the diagnosis, where it lowers the mean "
              f"square of every kept model of fewer effects on another branch by at least {s.material_noise:g} noise "
-             "variances. A round that keeps nothing ends the search. In the tables the new effect is in bold and delta BIC is against "
+             "variances. A round that keeps nothing ends the search"
+             + (f" from round {d.model.search_rounds} on" if d.model.search_rounds > 1 else "") + ". In the tables the new effect is in bold and delta BIC is against "
              "the model it was grown from.", ""]
     for k, step in enumerate(d.steps, start=1):
         rows = [(_grown(i), _fmt(i["rmse"]), _fmt(i["cv_rmse"]), _fmt(i["delta_bic"], 5), _round_decision(i))

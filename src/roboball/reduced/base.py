@@ -69,6 +69,9 @@ class ReducedModel:
     # value): a joint's breakaway fades within the creep band (roboball.physics.effects, stiction)
     held_params: dict = {"stiction.v_s": fx.V_STRIBECK}
     description: str = ""
+    # run the compiled loop (roboball.reduced.compiled) where the model has one; False: the
+    # NumPy loop, its reference (tests compare the two)
+    compiled: bool = True
 
     def hidden_starts(self) -> list:
         """Starting points ({name: value}) of the hidden release states' fits."""
@@ -92,17 +95,8 @@ class ReducedModel:
         then moves by up to 1e-6 rad).
         """
         full, part = [], []
-        for name in active:
+        for name, sl in self.effect_plan(P, active):
             eff = fx.LIBRARY[name]
-            if eff.kind == "inertia":      # no torque: the model adds it to its inertia (bind_inertia)
-                continue
-            first = np.asarray(P[f"{name}.{eff.params[0].name}"])
-            rows = np.nonzero(first != 0.0)[0]
-            sl = None
-            if rows.size and rows[-1] - rows[0] + 1 == rows.size and rows.size < first.size:
-                sl = slice(int(rows[0]), int(rows[-1]) + 1)
-            elif rows.size and rows.size <= SPARSE_SHARE * first.size:
-                sl = rows
             # a parameter with a value of its own (stiction's width) may be absent: the law's default
             kw = {p.name: np.asarray(P[f"{name}.{p.name}"], dtype=float)[sl if sl is not None else slice(None)]
                   for p in eff.params if f"{name}.{p.name}" in P or not p.optional}
@@ -122,6 +116,28 @@ class ReducedModel:
             return tau
         return add
 
+    def effect_plan(self, P: dict, active: list) -> list:
+        """The active force effects in the order `bind_effects` adds them, each with the rows it
+        is evaluated on: [(name, rows)], rows None (the whole batch: it comes first), a slice or
+        an index array (see `bind_effects`).  The compiled loops (roboball.reduced.compiled) add
+        the effects in this order too, so that each row's sum is rounded alike."""
+        full, part = [], []
+        for name in active:
+            eff = fx.LIBRARY[name]
+            if eff.kind == "inertia":      # no torque: the model adds it to its inertia (bind_inertia)
+                continue
+            first = np.asarray(P[f"{name}.{eff.params[0].name}"])
+            rows = np.nonzero(first != 0.0)[0]
+            sl = None
+            if rows.size and rows[-1] - rows[0] + 1 == rows.size and rows.size < first.size:
+                sl = slice(int(rows[0]), int(rows[-1]) + 1)
+            elif rows.size and rows.size <= SPARSE_SHARE * first.size:
+                sl = rows
+            if sl is None:
+                full.append((name, None))
+            else:
+                part.append((name, sl))
+        return full + part
 
     def bind_inertia(self, P: dict, active: list):
         """The inertia (kg m^2) the active inertia effects add to the coordinate's, one value per

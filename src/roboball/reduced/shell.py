@@ -50,11 +50,11 @@ class ShellModel(ReducedModel):
                             f"(M_eq = {self.m_eq:.4g} kg m^2, K_eq = {self.k_g:.4g} N m/rad, rest {self.rest:.4g} rad)")
 
     def simulate(self, q0, P: dict, n_steps: int, dt: float = DT):
+        if self.compiled:
+            return self.stepper(q0, P, dt).advance(n_steps)
         active = active_effects(P, self.candidates)
         m, R, d, k_g = self.mass, self.radius, self.d, self.k_g
-        m0 = self.i_com + m * (R * R + d * d)
-        mrd2 = 2.0 * m * R * d
-        mrd = m * R * d
+        mrd, mrd2, m0 = self._constants()
         extra = self.bind_effects(P, active) if active else None
 
         def accel(q, v):
@@ -75,6 +75,19 @@ class ShellModel(ReducedModel):
         Q, V = midpoint(accel, q0, np.zeros_like(q0), n_steps, dt)
         Q += self.rest
         return Q, V
+
+    def _constants(self) -> tuple:
+        """m R d, 2 m R d and m0 = I_c + m (R^2 + d^2) of the equation (module docstring)."""
+        m, R, d = self.mass, self.radius, self.d
+        return m * R * d, 2.0 * m * R * d, self.i_com + m * (R * R + d * d)
+
+    def stepper(self, q0, P: dict, dt: float = DT):
+        """The compiled loop as a roboball.reduced.compiled.Stepper (a batch run a stretch at a time)."""
+        from roboball.reduced import compiled
+        active = active_effects(P, self.candidates)
+        q0 = np.asarray(q0, dtype=float) - self.rest
+        codes, par = compiled.effect_arrays(self, P, active, q0.size)
+        return compiled.shell_stepper(self, q0, self.k_g, *self._constants(), codes, par, dt)
 
 
 def composite(links, names) -> tuple:

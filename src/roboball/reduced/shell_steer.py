@@ -121,15 +121,43 @@ class ShellSteerModel(ReducedModel):
     def simulate(self, q0, P: dict, n_steps: int, dt: float = DT):
         """Pipe angle and rate, (n_steps + 1, B) each, from (q0, at rest) with the steer joint
         released from P['steer_angle'], P['steer_rate'] (zero where absent)."""
+        if self.compiled:
+            return self.stepper(q0, P, dt).advance(n_steps)
         q0 = np.asarray(q0, dtype=float)
         B = q0.shape[0]
         # integrate copies its starts
-        th0 = np.broadcast_to(np.asarray(P.get("steer_angle", 0.0), dtype=float), (B,))
-        w0 = np.broadcast_to(np.asarray(P.get("steer_rate", 0.0), dtype=float), (B,))
+        th0, w0 = self._hidden(P, B)
         active = active_effects(P, self.candidates)
         extra = self.bind_effects(P, active) if active else None
         Q, V, _, _ = integrate(self, extra, q0, th0, w0, n_steps, dt)
         return Q, V
+
+    def _hidden(self, P: dict, B: int):
+        """The steer joint's release angle and rate per row (zero where absent)."""
+        return (np.broadcast_to(np.asarray(P.get("steer_angle", 0.0), dtype=float), (B,)),
+                np.broadcast_to(np.asarray(P.get("steer_rate", 0.0), dtype=float), (B,)))
+
+    def stepper(self, q0, P: dict, dt: float = DT):
+        """The compiled loop as a roboball.reduced.compiled.Stepper (a batch run a stretch at a time)."""
+        from roboball.reduced import compiled
+        q0 = np.asarray(q0, dtype=float)
+        th0, w0 = self._hidden(P, q0.shape[0])
+        codes, par = compiled.effect_arrays(self, P, active_effects(P, self.candidates), q0.shape[0])
+        return compiled.steer_stepper(self, q0, th0, w0, codes, par, dt)
+
+    def geometry(self) -> tuple:
+        """The constants of `equations`' accel, (ay, az, by, bz, k11, k12, m22, R, g, rest), as
+        the compiled loop takes them (roboball.reduced.compiled)."""
+        mA, yA, zA, iA = self.a
+        mB, yB, zB, iB = self.b
+        R = self.radius
+        k11 = mA * (yA * yA + zA * zA + R * R) + mB * (yB * yB + zB * zB + R * R) + iA + iB
+        k12 = mB * (yB * yB + zB * zB) + iB
+        return (mA * yA, mA * zA, mB * yB, mB * zB, k11, k12, k12 + self.delta_i, R, self.g, self.rest)
+
+    def majd_args(self) -> tuple:
+        """The steer joint's Majd parameters in the law's order (f_w, f_c, sigma, omega_c, n)."""
+        return tuple(self.majd[k] for k in ("f_w", "f_c", "sigma", "omega_c", "n"))
 
     def equations(self, extra):
         """accel(phi, theta, phi', theta') -> (phi'', theta'') for a batch: the module docstring's

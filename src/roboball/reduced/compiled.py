@@ -1,0 +1,305 @@
+"""Compiled time loops of the diagnosis's stand, shell and free-steer shell models (Numba): the
+same explicit midpoint steps and the same effect laws as their NumPy loops, with no Python per
+step.
+
+Why: the diagnosis simulates a few hundred parameter sets per batched call on average (a fit's
+trial point and its finite differences, a fold, a grid of starts), and at that size the NumPy
+loop's cost is its per-step Python and ufunc dispatch (about 30 array operations per
+acceleration), not arithmetic: on the real steer log 85% of `roboball diagnose`'s time was in
+`midpoint`, the effects' `add` and the laws called from it.  Here every batch row runs its own
+loop in machine code (rows in parallel threads; rows are independent, so results do not depend
+on the number of threads).
+
+Nothing here re-implements a law: the effect laws of roboball.physics.effects and the Majd law of
+roboball.physics.friction are compiled as they are, with the scalar math namespace
+(roboball.physics.mathns.scalar).  Each acceleration is written in the same operation order as
+its NumPy twin (roboball.reduced.stand, .shell, .shell_steer), and the effects are added in the
+order ReducedModel.effect_plan gives NumPy (rows where an effect's magnitude is zero get no term:
+NumPy adds a signed zero there).  Where NumPy's transcendental functions are libm's (the
+pipeline's pinned numerics, roboball.pipeline.numerics) the two loops agree to the bit; with
+NumPy's own SIMD functions (a wide CPU, unpinned) they differ in the last bits of sin, exp and
+tanh (`tests/reduced/test_compiled.py`).
+
+The kernels are cached on disk (Numba's `cache=True`): the first run in a fresh checkout
+compiles them (about 10 s), later processes load them.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+from numba.extending import overload
+
+from roboball.physics import effects as fx
+from roboball.physics import friction as friction_laws
+from roboball.physics.mathns import scalar
+
+M = scalar()
+
+# effect codes of the compiled dispatch (`_torque`), with each law's parameters in order
+CODES = {"viscous_damping": 0, "coulomb_friction": 1, "stiction": 2, "quadratic_drag": 3,
+         "linear_stiffness": 4, "cubic_stiffness": 5, "com_offset": 6, "backlash": 7, "rolling_resistance": 8}
+_LOG_R, _PEAKS = fx._LOG_R, fx._PEAKS
+
+
+@overload(fx.stiction_peak)
+def _stiction_peak_scalar(v_s):
+    """fx.stiction_peak on one width: the creep band's constant itself, else the same table."""
+    def impl(v_s):
+        if v_s == fx.V_STRIBECK:
+            return fx.STICTION_PEAK
+        return np.interp(math.log(max(v_s, fx.V_STRIBECK) / fx.V_EPS), _LOG_R, _PEAKS)
+    return impl
+
+
+_viscous = njit(cache=True)(fx.viscous_damping)
+_coulomb = njit(cache=True)(fx.coulomb_friction)
+_stiction = njit(cache=True)(fx.stiction)
+_quadratic = njit(cache=True)(fx.quadratic_drag)
+_linear = njit(cache=True)(fx.linear_stiffness)
+_cubic = njit(cache=True)(fx.cubic_stiffness)
+_offset = njit(cache=True)(fx.com_offset)
+_backlash = njit(cache=True)(fx.backlash)
+_rolling = njit(cache=True)(fx.rolling_resistance)
+_majd = njit(cache=True)(friction_laws.majd)
+
+
+@njit(cache=True)
+def _torque(code, q, v, a, b, k_g):
+    """The torque of effect `code` (CODES) with parameters (a, b) at (q, v)."""
+    if code == 0:
+        return _viscous(q, v, a, M)
+    if code == 1:
+        return _coulomb(q, v, a, M)
+    if code == 2:
+        return _stiction(q, v, a, b, M)
+    if code == 3:
+        return _quadratic(q, v, a, M)
+    if code == 4:
+        return _linear(q, v, a, M)
+    if code == 5:
+        return _cubic(q, v, a, M)
+    if code == 6:
+        return _offset(q, v, a, k_g, M)
+    if code == 7:
+        return _backlash(q, v, a, b, M)
+    return _rolling(q, v, a, M)
+
+
+@njit(cache=True)
+def _add_effects(tau, q, v, codes, par, r, k_g):
+    """tau plus every effect of row r, in the plan's order; an effect whose magnitude is zero on
+    the row adds nothing."""
+    for e in range(codes.size):
+        a = par[e, r, 0]
+        if a != 0.0:
+            tau += _torque(codes[e], q, v, a, par[e, r, 1], k_g)
+    return tau
+
+
+@njit(cache=True)
+def _stand_accel(q, v, r, k_g, c, inv_i, codes, par):
+    tau = math.sin(q)
+    tau *= -k_g
+    tau -= c[r] * v
+    tau = _add_effects(tau, q, v, codes, par, r, k_g)
+    tau *= inv_i[r]
+    return tau
+
+
+@njit(cache=True)
+def _shell_accel(q, v, r, k_g, mrd, mrd2, m0, codes, par):
+    s = math.sin(q)
+    tau = v * v
+    tau *= -mrd
+    tau -= k_g
+    tau *= s
+    tau = _add_effects(tau, q, v, codes, par, r, k_g)
+    den = math.cos(q)
+    den *= -mrd2
+    den += m0
+    return tau / den
+
+
+@njit(cache=True, parallel=True)
+def _run_stand(q0, v0, n_steps, dt, k_g, c, inv_i, codes, par, Q, V):
+    h2 = 0.5 * dt
+    for r in prange(q0.size):
+        q = q0[r]
+        v = v0[r]
+        Q[r, 0] = q
+        V[r, 0] = v
+        for k in range(1, n_steps + 1):
+            a1 = _stand_accel(q, v, r, k_g, c, inv_i, codes, par)
+            qm = q + v * h2
+            vm = v + a1 * h2
+            a2 = _stand_accel(qm, vm, r, k_g, c, inv_i, codes, par)
+            q += vm * dt
+            v += a2 * dt
+            Q[r, k] = q
+            V[r, k] = v
+
+
+@njit(cache=True, parallel=True)
+def _run_shell(q0, v0, n_steps, dt, k_g, mrd, mrd2, m0, codes, par, Q, V):
+    h2 = 0.5 * dt
+    for r in prange(q0.size):
+        q = q0[r]
+        v = v0[r]
+        Q[r, 0] = q
+        V[r, 0] = v
+        for k in range(1, n_steps + 1):
+            a1 = _shell_accel(q, v, r, k_g, mrd, mrd2, m0, codes, par)
+            qm = q + v * h2
+            vm = v + a1 * h2
+            a2 = _shell_accel(qm, vm, r, k_g, mrd, mrd2, m0, codes, par)
+            q += vm * dt
+            v += a2 * dt
+            Q[r, k] = q
+            V[r, k] = v
+
+
+@njit(cache=True)
+def _steer_accel(ph, th, v, w, r, geo, mj, k_g, codes, par):
+    """roboball.reduced.shell_steer.ShellSteerModel.equations' accel for row r; geo = (ay, az,
+    by, bz, k11, k12, m22, R, g, rest), mj = Majd's (f_w, f_c, sigma, omega_c, n)."""
+    ay, az, by, bz, k11, k12, m22, R, g, rest = geo
+    ca, sa = math.cos(ph), math.sin(ph)
+    ab = ph + th
+    cb, sb = math.cos(ab), math.sin(ab)
+    pA = -(ay * sa + az * ca)
+    qA = ay * ca - az * sa
+    pB = -(by * sb + bz * cb)
+    qB = by * cb - bz * sb
+    m11 = k11 - 2.0 * R * (pA + pB)
+    m12 = k12 - R * pB
+    vb = v + w
+    f1 = -(qA * (R * v * v + g) + qB * (R * vb * vb + g))
+    f2 = _majd(w, mj[0], mj[1], mj[2], mj[3], mj[4], M) - g * qB
+    f1 = _add_effects(f1, ph - rest, v, codes, par, r, k_g)
+    det = m11 * m22 - m12 * m12
+    return (m22 * f1 - m12 * f2) / det, (m11 * f2 - m12 * f1) / det
+
+
+@njit(cache=True, parallel=True)
+def _run_steer(q0, v0, th0, w0, n_steps, dt, geo, mj, k_g, codes, par, Q, V, TH, W):
+    h2 = 0.5 * dt
+    for r in prange(q0.size):
+        ph, th, v, w = q0[r], th0[r], v0[r], w0[r]
+        Q[r, 0] = ph
+        V[r, 0] = v
+        for k in range(1, n_steps + 1):
+            a1, b1 = _steer_accel(ph, th, v, w, r, geo, mj, k_g, codes, par)
+            vm = v + h2 * a1
+            wm = w + h2 * b1
+            a2, b2 = _steer_accel(ph + h2 * v, th + h2 * w, vm, wm, r, geo, mj, k_g, codes, par)
+            ph += vm * dt
+            th += wm * dt
+            v += a2 * dt
+            w += b2 * dt
+            Q[r, k] = ph
+            V[r, k] = v
+        TH[r] = th
+        W[r] = w
+
+
+def effect_arrays(model, P: dict, active: list, B: int):
+    """The active force effects of a batch as the kernels take them: codes (E,) in the order
+    model.effect_plan adds them, and parameters (E, B, 2) (magnitude, second parameter; a
+    magnitude of zero leaves the row without the effect)."""
+    plan = model.effect_plan(P, active)
+    codes = np.array([CODES[name] for name, _ in plan], dtype=np.int64)
+    par = np.zeros((len(plan), B, 2))
+    for e, (name, _) in enumerate(plan):
+        eff = fx.LIBRARY[name]
+        for j, p in enumerate(eff.params):
+            key = f"{name}.{p.name}"
+            par[e, :, j] = np.asarray(P[key], dtype=float) if key in P else p.default
+    return codes, par
+
+
+class Stepper:
+    """A batch simulated a stretch at a time: `advance(n)` runs every row n steps on from where
+    the last stretch ended (the first from the start) and returns (Q, V), (n + 1, B) each, the
+    stretch's first step included; `keep(rows)` drops the other rows from later stretches.  The
+    rows' steps are the whole run's, to the bit: a stretch starts from the state the last one
+    ended in (roboball.diagnose.fit.Engine's bounded grids stop simulating hopeless starts)."""
+
+    def __init__(self, run, state: list, per_row: list, fixed: tuple, offset: float = 0.0):
+        """`run(*state, n_steps, *per_row, *fixed) -> (Q, V, new state)` (row-major (B, n + 1)
+        outputs); `per_row`: (array, axis of its rows)."""
+        self._run, self.state, self.per_row, self.fixed, self.offset = run, list(state), list(per_row), fixed, offset
+
+    def advance(self, n_steps: int):
+        Q, V, self.state = self._run(self.state, int(n_steps), [a for a, _ in self.per_row], self.fixed)
+        out = Q.T
+        if self.offset:
+            out = out + self.offset
+        return out, V.T
+
+    def keep(self, rows) -> None:
+        rows = np.asarray(rows, dtype=np.int64)
+        self.state = [x[rows] for x in self.state]
+        self.per_row = [(np.ascontiguousarray(np.take(a, rows, axis=ax)), ax) for a, ax in self.per_row]
+
+
+def _stand_run(state, n, rows, fixed):
+    q0, v0 = state
+    c, inv_i, par = rows
+    k_g, dt, codes = fixed
+    Q, V = _outputs(q0.size, n)
+    _run_stand(q0, v0, n, dt, k_g, c, inv_i, codes, par, Q, V)
+    return Q, V, [Q[:, -1].copy(), V[:, -1].copy()]
+
+
+def _shell_run(state, n, rows, fixed):
+    q0, v0 = state
+    (par,) = rows
+    k_g, mrd, mrd2, m0, dt, codes = fixed
+    Q, V = _outputs(q0.size, n)
+    _run_shell(q0, v0, n, dt, k_g, mrd, mrd2, m0, codes, par, Q, V)
+    return Q, V, [Q[:, -1].copy(), V[:, -1].copy()]
+
+
+def _steer_run(state, n, rows, fixed):
+    q0, v0, th0, w0 = state
+    (par,) = rows
+    geo, mj, k_g, dt, codes = fixed
+    B = q0.size
+    Q, V = _outputs(B, n)
+    TH, W = np.empty(B), np.empty(B)
+    _run_steer(q0, v0, th0, w0, n, dt, geo, mj, k_g, codes, par, Q, V, TH, W)
+    return Q, V, [Q[:, -1].copy(), V[:, -1].copy(), TH, W]
+
+
+def _rows(x, B: int) -> np.ndarray:
+    return np.ascontiguousarray(np.broadcast_to(np.asarray(x, dtype=float), (B,)))
+
+
+def stand_stepper(model, q0, c, inv_i, codes, par, dt: float) -> Stepper:
+    """roboball.reduced.stand's loop as a Stepper (q0 from the rest; outputs with the rest added)."""
+    B = q0.size
+    return Stepper(_stand_run, [_rows(q0, B), np.zeros(B)], [(_rows(c, B), 0), (_rows(inv_i, B), 0), (par, 1)],
+                   (float(model.k_g), float(dt), codes), offset=float(model.rest))
+
+
+def shell_stepper(model, q0, k_g, mrd, mrd2, m0, codes, par, dt: float) -> Stepper:
+    """roboball.reduced.shell's loop as a Stepper (q0 from the rest; outputs with the rest added)."""
+    B = q0.size
+    return Stepper(_shell_run, [_rows(q0, B), np.zeros(B)], [(par, 1)],
+                   (float(k_g), float(mrd), float(mrd2), float(m0), float(dt), codes), offset=float(model.rest))
+
+
+def steer_stepper(model, q0, th0, w0, codes, par, dt: float) -> Stepper:
+    """roboball.reduced.shell_steer's loop as a Stepper (pipe angle and rate)."""
+    B = q0.size
+    geo = tuple(float(x) for x in model.geometry())
+    mj = tuple(float(x) for x in model.majd_args())
+    return Stepper(_steer_run, [_rows(q0, B), np.zeros(B), _rows(th0, B), _rows(w0, B)], [(par, 1)],
+                   (geo, mj, float(model.k_g), float(dt), codes))
+
+
+def _outputs(B: int, n_steps: int):
+    """Row-major (B, n + 1) arrays for the kernels, returned to the caller as (n + 1, B) views."""
+    return np.empty((B, n_steps + 1)), np.empty((B, n_steps + 1))

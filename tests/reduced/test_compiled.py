@@ -1,0 +1,101 @@
+"""The compiled loops of the diagnosis's models (roboball.reduced.compiled) against their NumPy
+loops: the same trajectories, batch rows with every effect mix, the effects scattered over the
+batch as a search grows several models at once."""
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from roboball.pipeline.numerics import PINNED
+
+from roboball.physics import effects as fx
+from roboball.reduced.shell import ShellModel
+from roboball.reduced.shell_steer import ShellSteerModel
+from roboball.reduced.stand import StandModel
+
+
+def _batch(model, B, rng):
+    """B rows: each effect of the model on a random third of the rows, at a typical size."""
+    P = {}
+    for name in model.candidates:
+        for p in fx.LIBRARY[name].params:
+            key = f"{name}.{p.name}"
+            if key in model.held_params:
+                P[key] = np.full(B, model.held_params[key])
+            elif p is fx.LIBRARY[name].params[0]:
+                on = rng.random(B) < 0.35
+                P[key] = np.where(on, p.typical * rng.uniform(0.3, 3.0, B), 0.0)
+            else:
+                P[key] = np.full(B, p.typical)
+    for b in getattr(model, "base_params", ()):
+        P[b.name] = rng.uniform(0.05, 0.5, B)
+    return P
+
+
+@pytest.mark.parametrize("name", ["StandModel", "ShellModel", "ShellSteerModel"])
+def test_compiled_loop_gives_the_numpy_loops_trajectories(name):
+    (Qn, Vn), (Qc, Vc) = _runs(name)
+    assert Qc.shape == Qn.shape == (1501, 64) and Vc.shape == Vn.shape
+    # equal to the last bits of sin, exp and tanh, which NumPy's SIMD code may round otherwise
+    # (a dry-friction stop amplifies them, to well below a sensor's 1 mrad)
+    assert np.max(np.abs(Qc - Qn)) < 1e-5
+    assert np.median(np.abs(Qc - Qn)) < 1e-12
+
+
+EXACT = """
+import sys
+sys.path.insert(0, {here!r})
+import numpy as np
+from test_compiled import _runs
+for name in ("StandModel", "ShellModel", "ShellSteerModel"):
+    (Qn, Vn), (Qc, Vc) = _runs(name)
+    print(name, bool(np.array_equal(Qn, Qc) and np.array_equal(Vn, Vc)))
+"""
+
+
+def _runs(name):
+    """The NumPy and the compiled loop's (Q, V) of a mixed batch of model `name`."""
+    make = {"StandModel": StandModel, "ShellModel": ShellModel, "ShellSteerModel": ShellSteerModel}[name]
+    rng = np.random.default_rng(5)
+    model = make()
+    B, n = 64, 1500
+    P = _batch(model, B, rng)
+    q0 = model.rest + rng.uniform(-0.6, 0.6, B)
+    if isinstance(model, ShellSteerModel):
+        P["steer_angle"] = rng.uniform(-0.8, 0.8, B)
+        P["steer_rate"] = rng.uniform(-3.0, 3.0, B)
+    model.compiled = False
+    numpy_loop = model.simulate(q0, P, n)
+    model.compiled = True
+    return numpy_loop, model.simulate(q0, P, n)
+
+
+def test_under_the_pipelines_pinned_numerics_the_compiled_loops_are_bit_for_bit_the_numpy_loops():
+    """With NumPy's transcendental functions libm's (the pipeline's pins, roboball.pipeline.numerics)
+    both loops round every operation alike: a diagnosis gives the same numbers either way."""
+    env = dict(os.environ, **PINNED)
+    out = subprocess.run([sys.executable, "-c", EXACT.format(here=os.path.dirname(__file__))], env=env,
+                         capture_output=True, text=True, check=True).stdout.split()
+    assert out == ["StandModel", "True", "ShellModel", "True", "ShellSteerModel", "True"], out
+
+
+@pytest.mark.parametrize("make", [StandModel, ShellModel, ShellSteerModel])
+def test_a_batch_run_a_stretch_at_a_time_with_rows_dropped_is_the_whole_run_to_the_bit(make):
+    rng = np.random.default_rng(9)
+    model = make()
+    B = 24
+    P = _batch(model, B, rng)
+    q0 = model.rest + rng.uniform(-0.5, 0.5, B)
+    if isinstance(model, ShellSteerModel):
+        P["steer_angle"] = rng.uniform(-0.8, 0.8, B)
+        P["steer_rate"] = rng.uniform(-3.0, 3.0, B)
+    Q, V = model.simulate(q0, P, 900)
+    st = model.stepper(q0, P)
+    Q1, V1 = st.advance(400)
+    keep = np.arange(0, B, 3)
+    st.keep(keep)
+    Q2, V2 = st.advance(500)
+    assert np.array_equal(Q1, Q[:401]) and np.array_equal(V1, V[:401])
+    assert np.array_equal(Q2, Q[400:, keep]) and np.array_equal(V2, V[400:, keep])
