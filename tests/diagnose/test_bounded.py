@@ -1,6 +1,5 @@
 """Grids of starts bounded by what each start has cost so far (roboball.diagnose.bounded) pick the
 very start that simulating every start to the end picks."""
-import numpy as np
 import pandas as pd
 import pytest
 

@@ -53,7 +53,7 @@ class ShellModel(ReducedModel):
         if self.compiled:
             return self.stepper(q0, P, dt).advance(n_steps)
         active = active_effects(P, self.candidates)
-        m, R, d, k_g = self.mass, self.radius, self.d, self.k_g
+        k_g = self.k_g
         mrd, mrd2, m0 = self._constants()
         extra = self.bind_effects(P, active) if active else None
 
