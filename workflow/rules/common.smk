@@ -307,21 +307,23 @@ def _each(items):
     return json.dumps(items, sort_keys=True)
 
 
-def get_shell_sim_each(wildcards, input, output):
-    """One shell_sim call per shell recording, with the contact model of the job."""
-    return _each([{"releases": r, "regression": input.regression, "contact": wildcards.contact,
-                   "hydro_fit": " ".join(input.hydro_fit), "duration": config["shell"]["sim_duration_s"],
-                   "dt": config["shell"]["dt_s"], "out_csv": o}
+def _shell_sim_each(input, output, **call):
+    """One shell_sim call per shell recording, with the job's `call` arguments."""
+    return _each([{"releases": r, "regression": input.regression, "duration": config["shell"]["sim_duration_s"],
+                   "dt": config["shell"]["dt_s"], "out_csv": o, **call}
                   for r, o in zip(input.releases, output)])
+
+
+def get_shell_sim_each(wildcards, input, output):
+    """The shell simulations of one contact model."""
+    return _shell_sim_each(input, output, contact=wildcards.contact, hydro_fit=" ".join(input.hydro_fit))
 
 
 def get_sweep_sim_each(wildcards, input, output):
-    """One hydroelastic shell_sim call per shell recording at the sweep case's scales."""
+    """The hydroelastic shell simulations at one sweep case's scales."""
     modulus, dissipation = SWEEP[wildcards.case]
-    return _each([{"releases": r, "regression": input.regression, "contact": "hydroelastic",
-                   "modulus_scale": modulus, "dissipation_scale": dissipation,
-                   "duration": config["shell"]["sim_duration_s"], "dt": config["shell"]["dt_s"], "out_csv": o}
-                  for r, o in zip(input.releases, output)])
+    return _shell_sim_each(input, output, contact="hydroelastic", modulus_scale=modulus,
+                           dissipation_scale=dissipation)
 
 
 def get_ramp_sim_each(wildcards, input, output):
