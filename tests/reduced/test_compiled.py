@@ -99,3 +99,31 @@ def test_a_batch_run_a_stretch_at_a_time_with_rows_dropped_is_the_whole_run_to_t
     Q2, V2 = st.advance(500)
     assert np.array_equal(Q1, Q[:401]) and np.array_equal(V1, V[:401])
     assert np.array_equal(Q2, Q[400:, keep]) and np.array_equal(V2, V[400:, keep])
+
+
+def test_an_edited_law_is_compiled_afresh_not_loaded_from_the_cache(tmp_path):
+    """Numba stamps a cached kernel with its own file only; the kernels hold roboball.physics'
+    laws compiled in, so an edited law must not load the old machine code (it once did: the
+    kernel kept -c qd after viscous_damping became -2 c qd)."""
+    import shutil
+    import roboball
+    package = tmp_path / "roboball"
+    shutil.copytree(os.path.dirname(roboball.__file__), package,
+                    ignore=shutil.ignore_patterns("__pycache__"))
+    probe = ("from roboball.reduced import compiled\n"
+             "print(repr(compiled._torque(0, 0.1, 1.0, 0.5, 0.0, 1.0)))\n")
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    env["PYTHONPATH"] = str(tmp_path)
+
+    def torque():
+        out = subprocess.run([sys.executable, "-c", probe], env=env, cwd=tmp_path,
+                             capture_output=True, text=True, check=True)
+        return float(out.stdout)
+
+    assert torque() == -0.5
+    effects = package / "physics" / "effects.py"
+    text = effects.read_text()
+    assert text.count("return -c * qd") == 1
+    effects.write_text(text.replace("return -c * qd", "return -2.0 * c * qd"))
+    assert torque() == -1.0
+    assert len(list((package / "reduced" / "__pycache__").glob("roboball-kernels-*"))) == 2

@@ -21,12 +21,20 @@ NumPy's own SIMD functions (a wide CPU, unpinned) they differ in the last bits o
 tanh (`tests/reduced/test_compiled.py`).
 
 The kernels are cached on disk (Numba's `cache=True`): the first run in a fresh checkout
-compiles them (about 10 s), later processes load them.
+compiles them (about 10 s), later processes load them.  Numba checks a cached kernel against
+the stamp of the file that defines it only, while these kernels hold the laws of
+roboball.physics compiled into them: after an edit of a law they would load the old machine code
+and disagree with NumPy.  So the cache lives in a folder named by a hash of every source the
+kernels are built from (`_kernel_cache_dir`); an edit anywhere there compiles afresh.
 """
 from __future__ import annotations
 
+import hashlib
 import math
+import os
+from pathlib import Path
 
+import numba
 import numpy as np
 from numba import njit, prange
 from numba.extending import overload
@@ -36,6 +44,37 @@ from roboball.physics import friction as friction_laws
 from roboball.physics.mathns import scalar
 
 M = scalar()
+
+
+def _kernel_cache_dir() -> str:
+    """The folder of this module's cached kernels: under the user's NUMBA_CACHE_DIR if set, else
+    beside this file, named by a hash of the bytes of roboball/physics/*.py and
+    roboball/reduced/*.py (everything compiled into a kernel lives there)."""
+    here = Path(__file__).resolve().parent
+    digest = hashlib.sha256()
+    for folder in (here.parent / "physics", here):
+        for source in sorted(folder.glob("*.py")):
+            digest.update(source.name.encode())
+            digest.update(source.read_bytes())
+    base = numba.config.CACHE_DIR or str(here / "__pycache__")
+    return os.path.join(base, f"roboball-kernels-{digest.hexdigest()[:16]}")
+
+
+_CACHE_DIR = _kernel_cache_dir()
+
+
+def _jit(**options):
+    """njit with cache=True, cached in _CACHE_DIR.  Numba fixes a function's cache folder when it
+    is decorated, from numba.config.CACHE_DIR; it is set for that moment only, so other Numba
+    users in the process keep their own."""
+    def decorate(fn):
+        saved = numba.config.CACHE_DIR
+        numba.config.CACHE_DIR = _CACHE_DIR
+        try:
+            return njit(cache=True, **options)(fn)
+        finally:
+            numba.config.CACHE_DIR = saved
+    return decorate
 
 # effect codes of the compiled dispatch (`_torque`), with each law's parameters in order
 CODES = {"viscous_damping": 0, "coulomb_friction": 1, "stiction": 2, "quadratic_drag": 3,
@@ -53,19 +92,19 @@ def _stiction_peak_scalar(v_s):
     return impl
 
 
-_viscous = njit(cache=True)(fx.viscous_damping)
-_coulomb = njit(cache=True)(fx.coulomb_friction)
-_stiction = njit(cache=True)(fx.stiction)
-_quadratic = njit(cache=True)(fx.quadratic_drag)
-_linear = njit(cache=True)(fx.linear_stiffness)
-_cubic = njit(cache=True)(fx.cubic_stiffness)
-_offset = njit(cache=True)(fx.com_offset)
-_backlash = njit(cache=True)(fx.backlash)
-_rolling = njit(cache=True)(fx.rolling_resistance)
-_majd = njit(cache=True)(friction_laws.majd)
+_viscous = _jit()(fx.viscous_damping)
+_coulomb = _jit()(fx.coulomb_friction)
+_stiction = _jit()(fx.stiction)
+_quadratic = _jit()(fx.quadratic_drag)
+_linear = _jit()(fx.linear_stiffness)
+_cubic = _jit()(fx.cubic_stiffness)
+_offset = _jit()(fx.com_offset)
+_backlash = _jit()(fx.backlash)
+_rolling = _jit()(fx.rolling_resistance)
+_majd = _jit()(friction_laws.majd)
 
 
-@njit(cache=True)
+@_jit()
 def _torque(code, q, v, a, b, k_g):
     """The torque of effect `code` (CODES) with parameters (a, b) at (q, v)."""
     if code == 0:
@@ -87,7 +126,7 @@ def _torque(code, q, v, a, b, k_g):
     return _rolling(q, v, a, M)
 
 
-@njit(cache=True)
+@_jit()
 def _add_effects(tau, q, v, codes, par, r, k_g):
     """tau plus every effect of row r, in the plan's order; an effect whose magnitude is zero on
     the row adds nothing."""
@@ -98,7 +137,7 @@ def _add_effects(tau, q, v, codes, par, r, k_g):
     return tau
 
 
-@njit(cache=True)
+@_jit()
 def _stand_accel(q, v, r, k_g, c, inv_i, codes, par):
     tau = math.sin(q)
     tau *= -k_g
@@ -108,7 +147,7 @@ def _stand_accel(q, v, r, k_g, c, inv_i, codes, par):
     return tau
 
 
-@njit(cache=True)
+@_jit()
 def _shell_accel(q, v, r, k_g, mrd, mrd2, m0, codes, par):
     s = math.sin(q)
     tau = v * v
@@ -122,7 +161,7 @@ def _shell_accel(q, v, r, k_g, mrd, mrd2, m0, codes, par):
     return tau / den
 
 
-@njit(cache=True, parallel=True)
+@_jit(parallel=True)
 def _run_stand(q0, v0, n_steps, dt, k_g, c, inv_i, codes, par, Q, V):
     h2 = 0.5 * dt
     for r in prange(q0.size):
@@ -141,7 +180,7 @@ def _run_stand(q0, v0, n_steps, dt, k_g, c, inv_i, codes, par, Q, V):
             V[r, k] = v
 
 
-@njit(cache=True, parallel=True)
+@_jit(parallel=True)
 def _run_shell(q0, v0, n_steps, dt, k_g, mrd, mrd2, m0, codes, par, Q, V):
     h2 = 0.5 * dt
     for r in prange(q0.size):
@@ -160,7 +199,7 @@ def _run_shell(q0, v0, n_steps, dt, k_g, mrd, mrd2, m0, codes, par, Q, V):
             V[r, k] = v
 
 
-@njit(cache=True)
+@_jit()
 def _steer_accel(ph, th, v, w, r, geo, mj, k_g, codes, par):
     """roboball.reduced.shell_steer.ShellSteerModel.equations' accel for row r; geo = (ay, az,
     by, bz, k11, k12, m22, R, g, rest), mj = Majd's (f_w, f_c, sigma, omega_c, n)."""
@@ -182,7 +221,7 @@ def _steer_accel(ph, th, v, w, r, geo, mj, k_g, codes, par):
     return (m22 * f1 - m12 * f2) / det, (m11 * f2 - m12 * f1) / det
 
 
-@njit(cache=True, parallel=True)
+@_jit(parallel=True)
 def _run_steer(q0, v0, th0, w0, n_steps, dt, geo, mj, k_g, codes, par, Q, V, TH, W):
     h2 = 0.5 * dt
     for r in prange(q0.size):
