@@ -54,9 +54,11 @@ endif
 
 # The everyday suite (about 5 minutes on 2 cores); the slow tests (whole campaign regeneration,
 # kill-and-resume, the browser, the real logs' diagnoses and friction chains) run in CI after it
-# (.ci/run) or with `make test-slow`.
+# (.ci/run) or with `make test-slow`.  The suite runs on CORES workers (pytest-xdist), a module
+# to a worker (--dist loadscope) so that a module's expensive fixture (a friction chain, a
+# campaign) is built once, not once per worker.
 test: $(STAMP)
-	$(BIN)/python -m pytest -q -m "not slow"
+	$(BIN)/python -m pytest -q -m "not slow" -n $(CORES) --dist loadscope
 
 test-slow: $(STAMP)
 	$(BIN)/python -m pytest -q -m "slow and not e2e"
