@@ -14,7 +14,8 @@ friction with true sticking, a centre of mass moved in the robot description, sy
 dead-zone backlash, ...; finer time steps than the diagnosis's models; irregular sampling,
 noise, quantisation and hand-held phases from roboball.testbed.sensors), writes ONLY the CSV
 and its sidecar into an empty temporary folder, and runs `roboball diagnose` on it in a
-subprocess.  The diagnosis never sees the truth.
+subprocess.  The diagnosis never sees the truth.  The benchmark restarts itself under the
+pipeline's pinned numerics (roboball.pipeline.numerics), so a case's bits do not depend on the CPU.
 
 Every concealed effect must show: the case's recording with and without it differ by an RMS of
 at least VISIBLE = 2 sensor noise levels (the diagnosis's own detection limit); a case whose draw
@@ -164,6 +165,8 @@ def run_case(case: dict, keep: str | None = None) -> dict:
 
 
 def main(argv=None) -> int:
+    from roboball.pipeline.numerics import run_pinned
+    run_pinned()    # the pipeline's numeric paths, so a case scores the same on every machine
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seed", type=int, default=6)
     ap.add_argument("--workers", type=int, default=2)

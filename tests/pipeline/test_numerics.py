@@ -36,6 +36,23 @@ def test_jobs_get_the_pins_over_the_users_settings_unless_told_native():
     assert job_environment({ENV: "native"}) == {}
 
 
+def test_a_benchmark_restarts_itself_under_the_pins_once(tmp_path):
+    script = tmp_path / "bench.py"
+    script.write_text("import os, sys\n"
+                      "print('start', flush=True)\n"
+                      "from roboball.pipeline.numerics import run_pinned\n"
+                      "run_pinned()\n"
+                      "print(os.environ.get('OPENBLAS_CORETYPE'), os.environ.get('GLIBC_TUNABLES'), sys.argv[1:])\n")
+    env = {k: v for k, v in os.environ.items() if k not in PINNED and k != ENV}
+    out = subprocess.run([sys.executable, str(script), "--seed", "3"], env=env, capture_output=True, text=True,
+                         check=True).stdout.split("\n")
+    assert out[:2] == ["start", "start"]    # one restart, not a loop
+    assert out[2] == f"{PINNED['OPENBLAS_CORETYPE']} {PINNED['GLIBC_TUNABLES']} ['--seed', '3']"
+    native = subprocess.run([sys.executable, str(script)], env={**env, ENV: "native"}, capture_output=True,
+                            text=True, check=True).stdout.split("\n")
+    assert native[:2] == ["start", "None None []"]
+
+
 def test_numpys_pin_is_recognised_by_the_installed_numpy():
     from numpy._core._multiarray_umath import __cpu_features__
     if not __cpu_features__.get("AVX2"):

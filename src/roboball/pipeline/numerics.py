@@ -35,3 +35,16 @@ def job_environment(environ) -> dict:
     if environ.get(ENV, "").strip().lower() == "native":
         return {}
     return dict(PINNED)
+
+
+def run_pinned() -> None:
+    """Restart this Python program under job_environment's variables unless it already has them:
+    for a benchmark run outside the workflow (its recordings and diagnoses then get the bits a
+    pipeline job would).  NumPy picks its dispatch when imported and glibc reads GLIBC_TUNABLES
+    when the process starts, so setting them later would change nothing; hence a new process."""
+    import os
+    import sys
+    wanted = job_environment(os.environ)
+    if all(os.environ.get(k) == v for k, v in wanted.items()):
+        return
+    os.execve(sys.executable, [sys.executable, *sys.argv], {**os.environ, **wanted})
