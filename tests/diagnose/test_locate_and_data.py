@@ -265,6 +265,49 @@ def test_hold_releases_need_a_hold_of_0_4_s():
     assert rel[0].half_period_s == pytest.approx(0.5, abs=0.02)
 
 
+def _moved_held_released(t, y, t_move, level, swing_s, hold_s=1.0, move_s=0.8, rest=0.0, period=1.0):
+    """y with the body moved by a hand from `rest` at t_move to `level` in move_s, held hold_s,
+    then let go into an undamped swing about `rest` for swing_s; where it ends the body stays."""
+    t1, t2 = t_move + move_s, t_move + move_s + hold_s
+    moving = (t >= t_move) & (t < t1)
+    y[moving] = rest + (level - rest) * 0.5 * (1.0 - np.cos(np.pi * (t[moving] - t_move) / move_s))
+    y[(t >= t1) & (t < t2)] = level
+    free = t >= t2
+    swing = rest + (level - rest) * np.cos(2 * np.pi * np.minimum(t[free] - t2, swing_s) / period)
+    y[free] = swing
+    return t2
+
+
+def test_a_short_record_s_rest_before_the_hands_move_is_no_release_and_gives_the_rest():
+    """1 s at rest (-0.03), moved to +0.14 and held, let go for 2 s of a 2.8 s swing (one turning
+    point), as a short first recording of a shell is: the median of so short a record lies off
+    rest, so the stillness at rest once passed for a hold released at 1 s, and the release's rest
+    came from the swing's median (-0.07 for -0.03)."""
+    t = np.arange(0.0, 4.8, 0.01)
+    y = np.full_like(t, -0.03)
+    t_go = _moved_held_released(t, y, 1.0, 0.14, 2.0, rest=-0.03, period=2.8)
+    y += 4e-4 * np.random.default_rng(1).standard_normal(len(t))
+    rel = _hold_releases(t, y, "shell_rock")
+    assert len(rel) == 1
+    assert rel[0].t_release_s == pytest.approx(t_go, abs=0.03)
+    assert rel[0].y_rest == pytest.approx(-0.03, abs=2e-3)
+
+
+def test_a_body_that_creeps_to_rest_and_is_moved_on_keeps_its_release():
+    """Held at 0.3, let go into an overdamped creep to rest, still there 1 s, then moved by the
+    hand straight to -0.3 and held: the way from 0.3 to -0.3 is one-way but pauses at rest, so
+    the first hold is a release, not the start of a hand's move."""
+    t = np.arange(0.0, 12.0, 0.01)
+    y = np.zeros_like(t)
+    y[t < 1.0] = 0.3
+    creep = (t >= 1.0) & (t < 3.0)
+    y[creep] = 0.3 * np.exp(-4.0 * (t[creep] - 1.0))
+    y[(t >= 3.0) & (t < 4.0)] = 0.0
+    _moved_held_released(t, y, 4.0, -0.3, 6.0)
+    rel = _hold_releases(t, y, "steer_stand")
+    assert [r.t_release_s for r in rel] == [pytest.approx(1.0, abs=0.1), pytest.approx(5.8, abs=0.1)]
+
+
 def test_pooled_recordings_keep_the_coarsest_quantum_and_the_median_noise():
     def prep(label, noise, quantum):
         rec = Recording(pd.DataFrame({"time_s": [0.0, 1.0], "steer_angle_rad": [0.0, 0.0]}),

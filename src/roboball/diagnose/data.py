@@ -287,18 +287,50 @@ def _hold_releases(t, y, kind: str) -> list:
         hold = float(np.median(ys[a:b]))
         if b - a >= n_min and b < len(ys) - n_min and abs(hold - level) > max(20.0 * sig.sigma, 0.05 * span):
             holds.append((a, b, hold))
+    # In a short record the median is no rest: the stillness before the hand's first move then
+    # passes for a hold.  A hold whose body goes straight (no reversal, no pause) into the next
+    # hold was the start of a hand's move, not a release.  (A body that creeps to rest and is then
+    # moved on pauses there.)
+    tol = 5.0 * sig.sigma
+    pauses = [(a, b) for a, b in runs if b - a >= n_min]
     out = []
     for i, (a, b, hold) in enumerate(holds):
         k_end = holds[i + 1][0] if i + 1 < len(holds) else len(ys) - 1
+        if (i + 1 < len(holds) and _straight(ys[b:k_end + 1], tol)
+                and not any(b < a2 and b2 < k_end for a2, b2 in pauses)):
+            continue
         seg = ys[b:k_end]
         rest = float(np.median(seg)) if len(seg) else level
         sgn = np.sign(seg - rest)
         zc = tu[b:k_end][1:][np.diff(sgn) != 0]
         half = float(np.median(np.diff(zc))) if len(zc) > 2 else float("nan")
+        if len(zc) <= 2:                # under 1.5 swings the segment's median is not the rest
+            rest = _sat_at(ys, pauses, a, tol, rest)
         out.append(Release(t_release_s=float(tu[b - 1]), t_end_s=float(tu[k_end]), i_release=-1, i_end=-1,
                            y_release=hold, y_rest=rest, held_from_s=float(tu[a]), half_period_s=half,
                            noise=sig.sigma, kind=kind))
     return out
+
+
+def _sat_at(ys, pauses, a: int, tolerance: float, otherwise: float) -> float:
+    """Where the body sat still before the hand's move (or moves, hold to hold) that ended in the
+    hold starting at sample `a`: the level of the earliest pause in that straight chain; else
+    `otherwise`."""
+    level, end = otherwise, a
+    for a2, b2 in reversed([p for p in pauses if p[1] <= a]):
+        if not _straight(ys[b2:end + 1], tolerance):
+            break
+        level, end = float(np.median(ys[a2:b2])), a2
+    return level
+
+
+def _straight(y: np.ndarray, tolerance: float) -> bool:
+    """True when y goes one way only: no step back against its net direction (nor past its end)
+    of more than `tolerance`."""
+    if len(y) < 2:
+        return True
+    u = y * (1.0 if y[-1] >= y[0] else -1.0)
+    return float(np.max(np.maximum.accumulate(u) - u)) <= tolerance and float(np.max(u) - u[-1]) <= tolerance
 
 
 def boxcar_bounds(t: np.ndarray, t0: float, half_width: float):
