@@ -3,6 +3,7 @@
 settings are refused in one line, and on the real shell log (whose steer setting was not
 recorded) the free baseline's diagnosis fits where the locked one cannot."""
 import json
+import sys
 
 import numpy as np
 import pandas as pd
@@ -16,7 +17,10 @@ from roboball.errors import RoboballError
 from roboball.ingest.recording import Recording, write_recording
 from roboball.reduced.shell_steer import ShellSteerModel
 
-from conftest import REAL_DATA
+from conftest import REAL_DATA, REPO
+
+sys.path.insert(0, str(REPO / "benchmarks"))
+from diagnose_speed import imbalanced_free_releases  # noqa: E402  (the benchmark's recording)
 REAL_SHELL = REAL_DATA / "dynamic_data.csv"
 
 
@@ -145,41 +149,6 @@ def test_a_locked_steer_release_of_unrecorded_setting_is_reported_locked():
     assert d.steer_settings.keys() == {"locked", "free"}
 
 
-def _imbalanced_free_releases(path, releases, delta, seed, k=50.0, c=8.0, free_s=6.0):
-    """Shell releases in Drake with the pendulum free and a sideways imbalance of the shell: its
-    centre of mass turned by `delta` about the roll axis (com_offset, so that the rest shifts by
-    about delta), with a shell stiffness and damping; each release from a 1 s hold at `releases`
-    (rad from the model's rest) with the pendulum hanging there (at rest, its centre of mass below
-    the joint), 0.5 mrad noise; the sidecar says the steer setting is unknown."""
-    from roboball.diagnose.drake import effect_term
-    from roboball.sim.coupled import coupled_spec
-    from roboball.sim.scenarios import simulate
-    from roboball.sim.spec import ShellParams
-    from roboball.testbed.sensors import min_jerk
-    model = ShellSteerModel()
-    effects = {"linear_stiffness": {"k": k}, "viscous_damping": {"c": c}, "com_offset": {"delta": delta}}
-    spec = coupled_spec("point", ShellParams(), model.majd, extra_terms=[effect_term(model, effects)], dt=1e-3)
-    hanging = model.rest + model.steer_rest          # the pendulum's own rest angle, from the vertical
-    rate = 100.0
-    ts, ys = [np.arange(0.0, 1.0, 1 / rate)], [np.full(100, model.rest + delta)]
-    t_now, y_now = 1.0, model.rest + delta
-    for rel in releases:
-        held = model.rest + delta + rel
-        ts += [t_now + np.arange(80) / rate, t_now + 0.8 + np.arange(100) / rate]
-        ys += [min_jerk(y_now, held, 80), np.full(100, held)]
-        t_now += 1.8
-        df = simulate(spec, held, free_s, sample_rate_hz=rate, steer0=hanging - held,
-                      rates0={"pipe_rate": 0.0, "steer_rate": 0.0})
-        ts.append(t_now + df.time_s.to_numpy()[1:])
-        ys.append(df.pipe_angle_rad.to_numpy()[1:])
-        t_now, y_now = t_now + float(df.time_s.iloc[-1]), float(ys[-1][-1])
-    t = np.concatenate(ts)
-    y = np.concatenate(ys) + np.random.default_rng(seed).normal(0.0, 5e-4, len(t))
-    write_recording(path, Recording(pd.DataFrame({"time_s": t, "pipe_angle_rad": y}),
-                                    {"kind": "shell_rock", "pressure_kpa": 13.8, "steer_joint": "unknown"}))
-    return path
-
-
 @pytest.mark.slow       # Drake releases and a diagnosis both ways: 1-2 min each
 @pytest.mark.parametrize("releases, delta", [((0.35, -0.35), 0.04), ((0.35,), 0.04), ((-0.3,), -0.03)],
                          ids=["both sides", "one side", "the other side"])
@@ -191,7 +160,7 @@ def test_a_free_pendulum_shell_with_a_sideways_imbalance_is_diagnosed_free_with_
     standing in for the shifted rest).  From the other side the search judged the stiffness with a
     rolling resistance and the offset with it, both failing, and never the stiffness with the
     damping (roboball.diagnose.select.Selector._judge now judges on while none passes)."""
-    path = _imbalanced_free_releases(tmp_path / "imbalanced.csv", releases, delta, seed=3 + len(releases))
+    path = imbalanced_free_releases(tmp_path / "imbalanced.csv", releases, delta, seed=3 + len(releases))
     d, js = diagnose(path)
     assert "pendulum free on its steer joint" in js["baseline"]["description"]
     mp = {m["effect"]: m["parameters"] for m in js["missing_physics"]}
