@@ -1,6 +1,7 @@
 """The compiled loops of the diagnosis's models (roboball.reduced.compiled) against their NumPy
 loops: the same trajectories, batch rows with every effect mix, the effects scattered over the
-batch as a search grows several models at once."""
+batch as a search grows several models at once; and the ramp's equations, which both of its loops
+share (roboball.reduced.ramp_equations), against the Lagrange equations they solve."""
 import os
 import subprocess
 import sys
@@ -11,6 +12,9 @@ import pytest
 from roboball.pipeline.numerics import PINNED
 
 from roboball.physics import effects as fx
+from roboball.physics.mathns import NP
+from roboball.reduced import ramp_equations as eq
+from roboball.reduced.ramp import RampModel
 from roboball.reduced.shell import ShellModel
 from roboball.reduced.shell_steer import ShellSteerModel
 from roboball.reduced.stand import StandModel
@@ -34,7 +38,7 @@ def _batch(model, B, rng):
     return P
 
 
-@pytest.mark.parametrize("name", ["StandModel", "ShellModel", "ShellSteerModel"])
+@pytest.mark.parametrize("name", ["StandModel", "ShellModel", "ShellSteerModel", "RampModel"])
 def test_compiled_loop_gives_the_numpy_loops_trajectories(name):
     (Qn, Vn), (Qc, Vc) = _runs(name)
     assert Qc.shape == Qn.shape == (1501, 64) and Vc.shape == Vn.shape
@@ -49,7 +53,7 @@ import sys
 sys.path.insert(0, {here!r})
 import numpy as np
 from test_compiled import _runs
-for name in ("StandModel", "ShellModel", "ShellSteerModel"):
+for name in ("StandModel", "ShellModel", "ShellSteerModel", "RampModel"):
     (Qn, Vn), (Qc, Vc) = _runs(name)
     print(name, bool(np.array_equal(Qn, Qc) and np.array_equal(Vn, Vc)))
 """
@@ -57,7 +61,8 @@ for name in ("StandModel", "ShellModel", "ShellSteerModel"):
 
 def _runs(name):
     """The NumPy and the compiled loop's (Q, V) of a mixed batch of model `name`."""
-    make = {"StandModel": StandModel, "ShellModel": ShellModel, "ShellSteerModel": ShellSteerModel}[name]
+    make = {"StandModel": StandModel, "ShellModel": ShellModel, "ShellSteerModel": ShellSteerModel,
+            "RampModel": RampModel}[name]
     rng = np.random.default_rng(5)
     model = make()
     B, n = 64, 1500
@@ -78,7 +83,7 @@ def test_under_the_pipelines_pinned_numerics_the_compiled_loops_are_bit_for_bit_
     env = dict(os.environ, **PINNED)
     out = subprocess.run([sys.executable, "-c", EXACT.format(here=os.path.dirname(__file__))], env=env,
                          capture_output=True, text=True, check=True).stdout.split()
-    assert out == ["StandModel", "True", "ShellModel", "True", "ShellSteerModel", "True"], out
+    assert out == ["StandModel", "True", "ShellModel", "True", "ShellSteerModel", "True", "RampModel", "True"], out
 
 
 @pytest.mark.parametrize("make", [StandModel, ShellModel, ShellSteerModel])
@@ -127,3 +132,63 @@ def test_an_edited_law_is_compiled_afresh_not_loaded_from_the_cache(tmp_path):
     effects.write_text(text.replace("return -c * qd", "return -2.0 * c * qd"))
     assert torque() == -1.0
     assert len(list((package / "reduced" / "__pycache__").glob("roboball-kernels-*"))) == 2
+
+
+def test_the_ramp_rows_start_sliding_at_their_own_steps_in_both_loops():
+    """The ramp's contact switching, not only rolling: each row starts to slide at a step of its
+    own (the more damping, the sooner), which the compiled loop decides row by row while NumPy
+    re-evaluates the whole batch; both give the same rates."""
+    model = RampModel()
+    P = {"viscous_damping.c": np.array([0.0, 0.5, 8.0, 20.0])}
+    seen = []
+    switch = model._contact_mode
+
+    def record(*args):
+        out = switch(*args)
+        seen.append(out[0].copy())
+        return out
+    model._contact_mode = record
+    model.compiled = False
+    Yn, Ydn = model.simulate(np.zeros(4), P, 1500)
+    steps_sliding = np.array(seen).sum(axis=0)
+    assert np.all(np.diff(steps_sliding) > 0) and steps_sliding[0] > 0 and steps_sliding[-1] < 1500
+    model.compiled = True
+    Yc, Ydc = model.simulate(np.zeros(4), P, 1500)
+    assert np.max(np.abs(Yc - Yn)) < 1e-9 and np.max(np.abs(Ydc - Ydn)) < 1e-6
+
+
+def test_the_ramp_equations_solve_the_lagrange_equations_of_rolling_and_sliding():
+    """Accelerations from roboball.reduced.ramp_equations put back into the equations of motion of
+    roboball.reduced.ramp's docstring leave no residual: rolling with the friction it reports as
+    needed, sliding with mu N against the slip, and the normal force from the slope's normal
+    balance.  Both loops take their physics from these functions, so an error there fails here."""
+    model = RampModel()
+    k = eq.constants(model)
+    M, m_p, zc, R, a, g = model.m_s + model.m_p, model.m_p, model.z_c, model.radius, model.alpha, model.g
+    I_s, I_b = model.i_s, model.i_p + m_p * zc ** 2
+    rng = np.random.default_rng(3)
+    n = 50
+    be, wb, w = rng.uniform(-1.0, 1.0, n), rng.uniform(-4.0, 4.0, n), rng.uniform(-2.0, 15.0, n)
+    tau_d, q_th = rng.uniform(-0.3, 0.3, n), rng.uniform(-0.5, 0.5, n)
+    cba, sba, rhs_s, rhs_b = eq.terms(be, wb, tau_d, k, NP)
+    s2, th2, be2, F, N = eq.rolling(cba, sba, rhs_s, rhs_b, wb, q_th, k)
+    c, s = np.cos(be - a), np.sin(be - a)
+
+    def residuals(s2, th2, be2, F):
+        slope = M * s2 + m_p * zc * (c * be2 - s * wb ** 2) - M * g * np.sin(a) - F
+        shell = I_s * th2 + R * F - q_th
+        pend = I_b * be2 + m_p * zc * c * s2 - m_p * g * zc * np.sin(be) - tau_d
+        return np.abs(np.concatenate([slope, shell, pend])).max()
+
+    assert np.allclose(s2, R * th2, rtol=1e-14, atol=0.0)
+    assert residuals(s2, th2, be2, F) < 1e-9
+    # the normal force: the mass centre's acceleration normal to the slope, from the pendulum alone
+    assert np.allclose(N, M * g * np.cos(a) + m_p * zc * (-s * be2 - c * wb ** 2), rtol=1e-12)
+    direction = np.sign(rng.uniform(-1.0, 1.0, n))
+    s2, th2, be2 = eq.sliding(cba, rhs_s, rhs_b, q_th, N, direction, k, NP)
+    assert residuals(s2, th2, be2, model.mu * np.maximum(N, 0.0) * direction) < 1e-9
+    # Coulomb's cone and the re-stick that conserves the shell's momentum about the contact
+    assert np.array_equal(eq.exceeds_cone(F, N, k, NP), np.abs(F) > model.mu * np.maximum(N, 0.0))
+    vs = rng.uniform(0.0, 2.0, n)
+    vs1, w1 = eq.restick(vs, w, k)
+    assert np.allclose(vs1, R * w1) and np.allclose(M * R * vs + I_s * w, M * R * vs1 + I_s * w1)

@@ -1,4 +1,4 @@
-"""Compiled time loops of the diagnosis's stand, shell and free-steer shell models (Numba): the
+"""Compiled time loops of the diagnosis's stand, shell, free-steer shell and ramp models (Numba): the
 same explicit midpoint steps and the same effect laws as their NumPy loops, with no Python per
 step.
 
@@ -15,7 +15,9 @@ roboball.physics.friction are compiled as they are, with the scalar math namespa
 (roboball.physics.mathns.scalar).  Each acceleration is written in the same operation order as
 its NumPy twin (roboball.reduced.stand, .shell, .shell_steer), and the effects are added in the
 order ReducedModel.effect_plan gives NumPy (rows where an effect's magnitude is zero get no term:
-NumPy adds a signed zero there).  Where NumPy's transcendental functions are libm's (the
+NumPy adds a signed zero there).  The ramp model's equations (contact mode, derivative) are
+not written twice at all: roboball.reduced.ramp_equations serves its NumPy loop and `_run_ramp`
+alike, compiled here like the laws.  Where NumPy's transcendental functions are libm's (the
 pipeline's pinned numerics, roboball.pipeline.numerics) the two loops agree to the bit; with
 NumPy's own SIMD functions (a wide CPU, unpinned) they differ in the last bits of sin, exp and
 tanh (`tests/reduced/test_compiled.py`).
@@ -42,6 +44,7 @@ from numba.extending import overload
 from roboball.physics import effects as fx
 from roboball.physics import friction as friction_laws
 from roboball.physics.mathns import scalar
+from roboball.reduced import ramp_equations as req
 
 M = scalar()
 
@@ -241,6 +244,76 @@ def _run_steer(q0, v0, th0, w0, n_steps, dt, geo, mj, k_g, codes, par, Q, V, TH,
             V[r, k] = v
         TH[r] = th
         W[r] = w
+
+
+_ramp_terms = _jit()(req.terms)
+_ramp_rolling = _jit()(req.rolling)
+_ramp_sliding = _jit()(req.sliding)
+_ramp_exceeds = _jit()(req.exceeds_cone)
+_ramp_reversed = _jit()(req.slip_reversed)
+_ramp_restick = _jit()(req.restick)
+
+
+@_jit()
+def _ramp_deriv(th, be, vs, w, wb, sliding, direction, r, k, mj, k_g, codes, par):
+    """RampModel._equations' deriv for row r in its contact mode: (s'', theta'', beta'', the
+    friction rolling needs, the normal force); k = ramp_equations.constants, mj = Majd's."""
+    tau_d = _majd(wb - w, mj[0], mj[1], mj[2], mj[3], mj[4], M)
+    q_th = -tau_d
+    q_th = _add_effects(q_th, th, w, codes, par, r, k_g)
+    cba, sba, rhs_s, rhs_b = _ramp_terms(be, wb, tau_d, k, M)
+    a_s, a_th, a_be, f_req, normal = _ramp_rolling(cba, sba, rhs_s, rhs_b, wb, q_th, k)
+    if sliding:
+        a_s, a_th, a_be = _ramp_sliding(cba, rhs_s, rhs_b, q_th, normal, direction, k, M)
+    return a_s, a_th, a_be, f_req, normal
+
+
+@_jit(parallel=True)
+def _run_ramp(n_steps, dt, k, mj, k_g, codes, par, Y, Yd):
+    """RampModel.simulate's loop, one row per thread, from rest; Y, Yd (B, n + 1)."""
+    h2 = 0.5 * dt
+    for r in prange(Y.shape[0]):
+        th, be, vs, w, wb = 0.0, 0.0, 0.0, 0.0, 0.0
+        sliding = False
+        direction = 0.0
+        as1, a1, b1, f_req, normal = _ramp_deriv(th, be, vs, w, wb, sliding, direction, r, k, mj, k_g, codes, par)
+        Y[r, 0] = w
+        Yd[r, 0] = a1
+        for step in range(1, n_steps + 1):
+            # NumPy re-evaluates the first stage of every row when any row slides; a row that
+            # neither slides nor starts to gets the same numbers again, so only sliding rows do
+            changed = sliding
+            if not sliding and _ramp_exceeds(f_req, normal, k, M):
+                direction = M.sign(f_req)
+                sliding = True
+                changed = True
+            if sliding and _ramp_reversed(vs, w, direction, k):
+                vs, w = _ramp_restick(vs, w, k)
+                sliding = False
+            if changed:
+                as1, a1, b1, f_req, normal = _ramp_deriv(th, be, vs, w, wb, sliding, direction, r, k, mj, k_g,
+                                                         codes, par)
+            as2, a2, b2, _f, _n = _ramp_deriv(th + h2 * w, be + h2 * wb, vs + h2 * as1, w + h2 * a1, wb + h2 * b1,
+                                              sliding, direction, r, k, mj, k_g, codes, par)
+            th = th + dt * (w + h2 * a1)
+            be = be + dt * (wb + h2 * b1)
+            vs = vs + dt * as2
+            w = w + dt * a2
+            wb = wb + dt * b2
+            as1, a1, b1, f_req, normal = _ramp_deriv(th, be, vs, w, wb, sliding, direction, r, k, mj, k_g,
+                                                     codes, par)
+            Y[r, step] = w
+            Yd[r, step] = a1
+
+
+def ramp_run(model, P: dict, active: list, B: int, n_steps: int, dt: float):
+    """roboball.reduced.ramp.RampModel.simulate compiled: (drive rate, its derivative), (n + 1, B)
+    each."""
+    codes, par = effect_arrays(model, P, active, B)
+    Y, Yd = _outputs(B, n_steps)
+    _run_ramp(int(n_steps), float(dt), model.constants(), model.majd_args(), float(model.context["k_g"]),
+              codes, par, Y, Yd)
+    return Y.T, Yd.T
 
 
 def effect_arrays(model, P: dict, active: list, B: int):

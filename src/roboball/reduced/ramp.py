@@ -37,7 +37,9 @@ logs; the planar model then runs up to 0.2% (Table I) or 0.6% (fitted) of the to
 Integration: explicit midpoint (RK2) with a fixed step (2 ms), the contact mode frozen within
 a step.  The loop is the model's own, not roboball.reduced.integrate.midpoint: it carries five
 coordinates and a contact mode, and reuses the derivative at the end of a step as the recorded
-rate and the next step's first stage.
+rate and the next step's first stage.  The equations are written once, in
+roboball.reduced.ramp_equations, for this NumPy loop and the compiled one that the diagnosis runs
+(roboball.reduced.compiled.ramp_run; `compiled = False` selects the NumPy loop, its reference).
 """
 from __future__ import annotations
 
@@ -46,6 +48,8 @@ import math
 import numpy as np
 
 from roboball.config import RobotFacts, load_robot
+from roboball.physics.mathns import NP
+from roboball.reduced import ramp_equations as eq
 from roboball.reduced.base import DT, ReducedModel, active_effects
 from roboball.reduced.shell import rolling_radius
 from roboball.physics import friction as friction_laws
@@ -117,6 +121,9 @@ class RampModel(ReducedModel):
         of a step is the output's rate and the next step's first stage."""
         B = np.asarray(q0).shape[0]
         active = active_effects(P, self.candidates)
+        if self.compiled:
+            from roboball.reduced import compiled
+            return compiled.ramp_run(self, P, active, B, n_steps, dt)
         deriv = self._equations(self.bind_effects(P, active) if active else None)
         Y = np.empty((n_steps + 1, B))
         Yd = np.empty((n_steps + 1, B))
@@ -141,24 +148,30 @@ class RampModel(ReducedModel):
             Y[k], Yd[k] = w, a1
         return Y, Yd
 
+    def constants(self) -> tuple:
+        """The constants of roboball.reduced.ramp_equations (its `constants`)."""
+        return eq.constants(self)
+
+    def majd_args(self) -> tuple:
+        """The drive joint's Majd parameters (f_w, f_c, sigma, omega_c, n)."""
+        return tuple(float(self.majd[p]) for p in ("f_w", "f_c", "sigma", "omega_c", "n"))
+
     def _contact_mode(self, sliding, direction, f_req, normal, vs, w):
         """Contact mode for the next step: start sliding where rolling needs more than mu N;
         stick again where the slip velocity has reversed.  Returns (sliding, direction, vs, w,
         whether any member slides so that the step's first derivative must be re-evaluated)."""
-        M, R, mu, i_s = self.m_s + self.m_p, self.radius, self.mu, self.i_s
-        start = ~sliding & (np.abs(f_req) > mu * np.maximum(normal, 0.0))
+        k = self.constants()
+        start = ~sliding & eq.exceeds_cone(f_req, normal, k, NP)
         if start.any():
             direction = np.where(start, np.sign(f_req), direction)
             sliding = sliding | start
         if not sliding.any():
             return sliding, direction, vs, w, False
-        slip = vs - R * w
-        stick = sliding & (slip * direction > 0)      # friction would now push the slip on
+        stick = sliding & eq.slip_reversed(vs, w, direction, k)
         if stick.any():
-            # Plastic re-stick: common rolling speed from the shell's momentum about the contact.
-            w_new = (M * R * vs + i_s * w) / (M * R * R + i_s)
+            vs_new, w_new = eq.restick(vs, w, k)
             w = np.where(stick, w_new, w)
-            vs = np.where(stick, R * w_new, vs)
+            vs = np.where(stick, vs_new, vs)
             sliding = sliding & ~stick
         return sliding, direction, vs, w, True
 
@@ -166,43 +179,20 @@ class RampModel(ReducedModel):
         """deriv(theta, beta, s', theta', beta', sliding, direction) -> (s'', theta'', beta'', the
         friction the rolling mode needs, the normal force) for the current contact mode of each
         member; `extra(q, v, tau)` adds the effects' torques on the rolling coordinate."""
-        M, m_p, zc = self.m_s + self.m_p, self.m_p, self.z_c
-        R, a, g, mu, i_s = self.radius, self.alpha, self.g, self.mu, self.i_s
-        m22 = self.i_p + m_p * zc ** 2
-        mz = m_p * zc
-        m11_roll = M * R * R + i_s
-        g_s = M * g * math.sin(a)
-        n0 = M * g * math.cos(a)
-        mgz = m_p * g * zc
-        mj = self.majd
+        k = self.constants()
+        mj = self.majd_args()
 
         def deriv(th, be, vs, w, wb, sliding, direction):
-            cba = np.cos(be - a)
-            sba = np.sin(be - a)
-            tau_d = friction_laws.majd(wb - w, mj["f_w"], mj["f_c"], mj["sigma"], mj["omega_c"], mj["n"])
+            tau_d = friction_laws.majd(wb - w, *mj)
             q_th = -tau_d
             if extra is not None:
-                q_th = extra(th, w, q_th.copy())
-            rhs_s = g_s + mz * sba * wb * wb
-            rhs_b = mgz * np.sin(be) + tau_d
-            # Rolling: s'' = R theta''.
-            m12 = mz * R * cba
-            det = m11_roll * m22 - m12 * m12
-            f1 = R * rhs_s + q_th
-            th_r = (m22 * f1 - m12 * rhs_b) / det
-            be_r = (m11_roll * rhs_b - m12 * f1) / det
-            f_req = (q_th - i_s * th_r) / R
-            normal = n0 + mz * (-sba * be_r - cba * wb * wb)
+                q_th = extra(th, w, q_th)
+            cba, sba, rhs_s, rhs_b = eq.terms(be, wb, tau_d, k, NP)
+            s_r, th_r, be_r, f_req, normal = eq.rolling(cba, sba, rhs_s, rhs_b, wb, q_th, k)
             if not sliding.any():
-                return R * th_r, th_r, be_r, f_req, normal
-            # Sliding: F = mu N in the stored direction.
-            f = mu * np.maximum(normal, 0.0) * direction
-            mc = mz * cba
-            det_s = M * m22 - mc * mc
-            s_sl = (m22 * (rhs_s + f) - mc * rhs_b) / det_s
-            be_sl = (M * rhs_b - mc * (rhs_s + f)) / det_s
-            th_sl = (q_th - R * f) / i_s
-            return (np.where(sliding, s_sl, R * th_r), np.where(sliding, th_sl, th_r),
+                return s_r, th_r, be_r, f_req, normal
+            s_sl, th_sl, be_sl = eq.sliding(cba, rhs_s, rhs_b, q_th, normal, direction, k, NP)
+            return (np.where(sliding, s_sl, s_r), np.where(sliding, th_sl, th_r),
                     np.where(sliding, be_sl, be_r), f_req, normal)
 
         return deriv
