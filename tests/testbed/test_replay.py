@@ -1,0 +1,89 @@
+"""`roboball-testbed replay`: the calibrated twin runs a real log's experiment and writes the
+log's own columns at the log's own stamps; a bad input is refused in one line, nothing written."""
+import pandas as pd
+import pytest
+
+from conftest import REAL_DATA
+from roboball.testbed.cli import main
+
+STAND = "steering_static_stand_response.csv"
+SHELL = "dynamic_data.csv"
+COUPLED = ("steer_coupled_20250429_165825.csv", "steer_coupled_20250429_165853.csv", "steer_coupled_20250429_165914.csv")
+
+
+def _real(name):
+    path = REAL_DATA / name
+    if not path.is_file():
+        pytest.skip(f"{path} not found")
+    return path
+
+
+@pytest.mark.parametrize("name", [STAND, SHELL, COUPLED[0],
+                                  *(pytest.param(n, marks=pytest.mark.slow) for n in COUPLED[1:])])
+def test_replay_writes_the_logs_columns_at_its_stamps(tmp_path, capsys, name):
+    log = _real(name)
+    out = tmp_path / "twin.csv"
+    assert main(["replay", str(log), "--out", str(out)]) == 0
+    real, twin = pd.read_csv(log), pd.read_csv(out)
+    assert list(twin.columns) == list(real.columns)
+    assert set(twin.iloc[:, 0]) <= set(real.iloc[:, 0])            # the log's own stamps
+    assert len(twin) >= 100 and twin.notna().all().all()            # a free response, not a stub
+    merged = twin.merge(real.drop_duplicates(real.columns[0]), on=real.columns[0], suffixes=("", "_real"))
+    for c in real.columns[1:]:
+        if c.endswith(".velocity"):
+            continue
+        rms = ((merged[c] - merged[c + "_real"]) ** 2).mean() ** 0.5
+        assert rms < 0.5, (c, rms)                                   # it is the same experiment, not noise
+        assert abs(twin[c].iloc[0] - merged[c + "_real"].iloc[0]) < 0.05   # from the log's own release
+    assert "RMS against the log" in capsys.readouterr().out
+
+
+def _refused(capsys, argv, out):
+    rc = main(argv)
+    err = capsys.readouterr().err.strip()
+    assert rc != 0
+    assert len(err.splitlines()) == 1 and err.startswith("roboball-testbed: error: ")
+    assert not out.exists() and not list(out.parent.glob(f".{out.name}*"))
+    return err
+
+
+def test_a_missing_log_is_refused_in_one_line_naming_it(tmp_path, capsys):
+    out = tmp_path / "twin.csv"
+    err = _refused(capsys, ["replay", str(tmp_path / "nope.csv"), "--out", str(out)], out)
+    assert "nope.csv" in err and "no such file" in err
+
+
+def test_a_log_of_unknown_columns_is_refused(tmp_path, capsys):
+    bad = tmp_path / "odd.csv"
+    bad.write_text("t_s,angle_deg\n0,1\n0.1,2\n")
+    out = tmp_path / "twin.csv"
+    err = _refused(capsys, ["replay", str(bad), "--out", str(out)], out)
+    assert "odd.csv" in err
+
+
+def test_a_log_with_a_bad_cell_is_refused_naming_the_file(tmp_path, capsys):
+    bad = tmp_path / "steer.csv"
+    bad.write_text("steer_timestamp,pend_angle\n1.0,0.1\n1.01,abc\n1.02,0.1\n")
+    out = tmp_path / "twin.csv"
+    err = _refused(capsys, ["replay", str(bad), "--out", str(out)], out)
+    assert "steer.csv" in err
+
+
+def test_a_log_without_a_release_is_refused_and_nothing_is_written(tmp_path, capsys):
+    flat = tmp_path / "still.csv"
+    flat.write_text("steer_timestamp,pend_angle\n" + "".join(f"{1 + 0.0125 * k:.4f},-0.040\n" for k in range(400)))
+    out = tmp_path / "twin.csv"
+    err = _refused(capsys, ["replay", str(flat), "--out", str(out)], out)
+    assert "still.csv" in err and "release" in err
+
+
+def test_a_pressure_for_a_stand_log_is_refused(tmp_path, capsys):
+    out = tmp_path / "twin.csv"
+    err = _refused(capsys, ["replay", str(_real(STAND)), "--pressure-kpa", "13.8", "--out", str(out)], out)
+    assert "no shell pressure" in err
+
+
+def test_an_impossible_pressure_is_refused(tmp_path, capsys):
+    out = tmp_path / "twin.csv"
+    err = _refused(capsys, ["replay", str(_real(COUPLED[0])), "--pressure-kpa", "-5", "--out", str(out)], out)
+    assert "-5" in err and "kPa" in err
