@@ -87,3 +87,40 @@ def test_an_impossible_pressure_is_refused(tmp_path, capsys):
     out = tmp_path / "twin.csv"
     err = _refused(capsys, ["replay", str(_real(COUPLED[0])), "--pressure-kpa", "-5", "--out", str(out)], out)
     assert "-5" in err and "kPa" in err
+
+
+def _calibration():
+    from conftest import REPO
+    import json
+    path = REPO / "benchmarks" / "testbed_calibration.json"
+    if not path.is_file():
+        pytest.skip("benchmarks/testbed_calibration.json not written yet (benchmarks/testbed_calibrate.py --report)")
+    return json.loads(path.read_text())
+
+
+def test_the_twin_in_truth_yaml_is_the_calibrated_one():
+    """truth.yaml's real_robot section holds the calibration's values (not hand-edited ones)."""
+    import sys
+    from conftest import REPO
+    from roboball.testbed.physics import load_truth
+    sys.path.insert(0, str(REPO / "benchmarks"))
+    import testbed_calibrate as tc
+    cal = _calibration()
+    real = load_truth(real=True)
+    want = tc.with_params(tc.base_truth(), cal["calibrated"])
+    for name, spec in tc.PARAMS.items():
+        a, b = real, want
+        for k in spec[0]:
+            a, b = a[k], b[k]
+        assert a == pytest.approx(b, rel=1e-3), name
+    assert real["shell"]["set_at_kpa"] == cal["set_at_kpa"]
+
+
+@pytest.mark.parametrize("name", [STAND, SHELL, COUPLED[0]])
+def test_replay_reproduces_the_calibrations_in_sample_numbers(tmp_path, name):
+    from roboball.testbed.replay import replay
+    cal = _calibration()
+    want = cal["logs"][name.removesuffix(".csv")]["in_sample"]
+    got = replay(_real(name), tmp_path / "twin.csv")
+    for c, v in want.items():
+        assert got[c] == pytest.approx(v, rel=2e-3, abs=1e-4), c

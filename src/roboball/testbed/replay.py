@@ -9,16 +9,20 @@ and the recording it writes has the log's columns under the log's names, at the 
 time stamps (copied from the log), for the rows the experiment covers:
 
 * steer stand (`steer_timestamp`, `pend_angle`): the hand's releases found in the log
-  (`roboball.ingest.releases`); each is run on the stand from rest at its release angle until
-  the hand takes the pendulum again (or the log ends);
+  (`roboball.ingest.releases`); each is run on the stand from rest at its release angle to the
+  end of its free response (the finder's, before the hand moves the pendulum again);
 * shell log (`timestamp`, `ball_roll.position`, `ball_roll.velocity`): the shell release found
   in the log, run with the pendulum free on its steer joint (as the authors' own script models
   this log) from rest, the pendulum hanging plumb, to the end of its free response;
 * coupled steer log (`timestamp`, `ball_roll.position`, `roll_joint.position`): trimmed at the
   let-go, run from its first sample with the rates of its first 0.1 s, to its end.
 
-The shell's pressure is the log's calibrated nuisance value (truth.yaml `real_robot.logs`)
-unless `--pressure-kpa` gives one.  A bad log is refused with a one-line error naming the file
+A hand's let-go is not an instant the log records: for the stand's and the shell log's
+releases the twin is let go at the finder's instant shifted by the delay (-0.1 to +0.4 s, 5 ms
+grid) that fits that free response best, held still before it.  The shell's pressure is the
+log's calibrated nuisance value (truth.yaml `real_robot.logs`)
+unless `--pressure-kpa` gives one; so is the shell log's pendulum angle at its release (its
+offset from plumb; the log does not record the joint).  A bad log is refused with a one-line error naming the file
 and what is wrong, and no output is written (the CSV is written atomically).
 """
 from __future__ import annotations
@@ -36,6 +40,10 @@ from roboball.errors import RoboballError
 EXPERIMENT = {"steer_log": "steer_stand", "shell_log": "shell_free", "coupled_log": "steer_coupled"}
 NUISANCE_KEY = {"shell_log": "dynamic_data", "coupled_log": "steer_coupled"}
 RELEASE_RATE_S = 0.1       # s: the coupled stage's release rates (roboball.diagnose.coupled)
+# s: a hand lets go over a fraction of a second, and the release finder places the instant from
+# the hold and the swing (roboball.ingest.releases); the let-go the twin is given is the finder's
+# instant shifted by the delay in this range that fits that free response best (5 ms grid)
+LET_GO_DELAYS_S = np.round(np.arange(-0.10, 0.40 + 1e-9, 0.005), 3)
 SIM_RATE_HZ = 500.0        # the twin's output before interpolation to the log's stamps
 
 
@@ -68,6 +76,7 @@ class Segment:
     y0: float                 # rad: released angle (the stand's joint, the shell's pipe angle)
     rates0: dict | None = None
     steer0: float | None = None
+    let_go_fitted: bool = False   # a hand release: its let-go instant is fitted (LET_GO_DELAYS_S)
 
 
 def read_log(path) -> RealLog:
@@ -119,13 +128,11 @@ def segments(log: RealLog) -> list[Segment]:
         raise RoboballError(f"{log.path}: no release found in {coord} (a hand's hold, then a free response)")
     out = []
     for k, r in enumerate(releases):
-        # until the hand takes it again (the next hold) or the free response ends
-        end = releases[k + 1].held_from_s if k + 1 < len(releases) else log.t[-1]
-        if log.experiment == "shell_free":
-            end = min(end, r.t_end_s)
+        # to the end of its free response (before the hand moves it to the next hold)
+        end = min(r.t_end_s, releases[k + 1].held_from_s) if k + 1 < len(releases) else r.t_end_s
         rows = np.nonzero((log.t >= r.t_release_s) & (log.t <= end))[0]
         if len(rows) >= 2:
-            out.append(Segment(rows, float(r.y_release)))
+            out.append(Segment(rows, float(r.y_release), let_go_fitted=True))
     if not out:
         raise RoboballError(f"{log.path}: its releases hold fewer than two samples of free response")
     return out
@@ -144,9 +151,10 @@ def pressure_of(log: RealLog, truth: dict, p_kpa: float | None) -> float | None:
     return float(p_kpa)
 
 
-def _free_pendulum_run(truth: dict, p_kpa: float, t: np.ndarray, seg: Segment) -> dict:
+def _free_pendulum_run(truth: dict, p_kpa: float, t: np.ndarray, seg: Segment, steer_offset: float = 0.0) -> dict:
     """The shell released with the pendulum free: both angles and the pipe rate at `t` (s,
-    from the release)."""
+    from the release).  `steer_offset` (rad): the log's unknown joint angle at the release,
+    from plumb (a nuisance value of the calibration)."""
     import dataclasses
 
     from roboball.sim.scenarios import simulate
@@ -156,11 +164,27 @@ def _free_pendulum_run(truth: dict, p_kpa: float, t: np.ndarray, seg: Segment) -
     spec = dataclasses.replace(spec, kind="steer_coupled")
     # the pendulum hangs plumb while the hand holds the shell (the coupled repeats: pipe -0.36,
     # joint +0.39), unless the segment knows its joint angle
-    steer0 = seg.steer0 if seg.steer0 is not None else -seg.y0
+    steer0 = seg.steer0 if seg.steer0 is not None else -seg.y0 + steer_offset
     df = simulate(spec, seg.y0, float(t[-1]) + 2 * spec.dt, sample_rate_hz=SIM_RATE_HZ, steer0=steer0,
                   rates0=seg.rates0)
     ts = df["time_s"].to_numpy()
     return {c: np.interp(t, ts, df[c].to_numpy()) for c in ("pipe_angle_rad", "steer_angle_rad", "pipe_rate_rad_s")}
+
+
+def _let_go(t: np.ndarray, ts: np.ndarray, run: dict, main: str, y0: float, measured: np.ndarray) -> dict:
+    """The run `run` (columns at its times `ts`, from its let-go) at the log's times `t` (from
+    the finder's release instant), let go at the delay of LET_GO_DELAYS_S that fits `measured`
+    (the log's `main` column) best: held at y0 (at rest) before it."""
+    best, out = np.inf, None
+    for delay in LET_GO_DELAYS_S:
+        tau = t - delay
+        y = np.where(tau < 0.0, y0, np.interp(tau, ts, run[main]))
+        sse = float(np.sum((y - measured) ** 2))
+        if sse < best:
+            best, out = sse, {c: (y if c == main else np.where(tau < 0.0, 0.0 if c.endswith("velocity") else v[0],
+                                                                np.interp(tau, ts, v)))
+                              for c, v in run.items()}
+    return out
 
 
 def simulate_log(log: RealLog, truth: dict, p_kpa: float | None = None) -> tuple[np.ndarray, dict]:
@@ -168,19 +192,29 @@ def simulate_log(log: RealLog, truth: dict, p_kpa: float | None = None) -> tuple
     from roboball.testbed.run import run_free
 
     p = pressure_of(log, truth, p_kpa)
+    nuisance = truth.get("logs", {}).get(NUISANCE_KEY.get(log.fmt, ""), {})
+    main = log.coordinates[0]
     rows, cols = [], {c: [] for c in log.coordinates}
     for seg in segments(log):
         t = log.t[seg.rows] - log.t[seg.rows[0]]
+        # a fitted let-go may come up to the largest delay earlier: simulate that much longer
+        t_sim = t + (-LET_GO_DELAYS_S[0] if seg.let_go_fitted else 0.0)
         if log.experiment == "steer_stand":
-            df, _, _ = run_free("steer_stand", seg.y0, float(t[-1]) + 1e-3, truth=truth)
-            cols["pend_angle"].append(np.interp(t, df["time_s"].to_numpy(), df["steer_angle_rad"].to_numpy()))
+            df, _, _ = run_free("steer_stand", seg.y0, float(t_sim[-1]) + 1e-3, truth=truth)
+            ts, run = df["time_s"].to_numpy(), {"pend_angle": df["steer_angle_rad"].to_numpy()}
         else:
-            run = _free_pendulum_run(truth, p, t, seg)
-            cols["ball_roll.position"].append(run["pipe_angle_rad"])
+            r = _free_pendulum_run(truth, p, t_sim, seg, float(nuisance.get("steer_offset_rad", 0.0)))
+            ts, run = t_sim, {"ball_roll.position": r["pipe_angle_rad"]}
             if "ball_roll.velocity" in cols:
-                cols["ball_roll.velocity"].append(run["pipe_rate_rad_s"])
+                run["ball_roll.velocity"] = r["pipe_rate_rad_s"]
             if "roll_joint.position" in cols:
-                cols["roll_joint.position"].append(run["steer_angle_rad"])
+                run["roll_joint.position"] = r["steer_angle_rad"]
+        if seg.let_go_fitted:
+            run = _let_go(t, ts, run, main, seg.y0, log.values[main][seg.rows])
+        else:
+            run = {c: np.interp(t, ts, v) for c, v in run.items()}
+        for c in cols:
+            cols[c].append(run[c])
         rows.append(seg.rows)
     return np.concatenate(rows), {c: np.concatenate(v) for c, v in cols.items()}
 
