@@ -262,6 +262,30 @@ def need(stage: str) -> dict:
     return d
 
 
+def stands_and_ramp(truth: dict) -> dict:
+    """The calibrated twin put down at its locked-steer rest with the pendulum hanging (8 s),
+    and let go on the ramp (2 m, 4 s), at every campaign pressure: where it comes to rest
+    (rad), its largest lean (rad), its last 0.5 s's drift (rad); the ramp's largest sideways
+    lean (rad) and peak drive rate (rad/s)."""
+    from roboball.testbed.physics import true_robot
+    from roboball.testbed.run import coupled_release, run_free
+
+    rest = true_robot(truth).shell_rest_angle
+    t = np.linspace(0.0, 8.0, 801)
+    out = {}
+    for p in truth["campaign"]["pressures_kpa"]:
+        pipe = coupled_release(p, t, rest, -rest, None, truth=truth)["pipe_angle_rad"]
+        df, _, _ = run_free("ramp", 0.0, 4.0, p, truth, ramp_length_m=truth["campaign"]["ramp"]["length_m"])
+        out[str(p)] = {"rest_pipe_angle_rad": float(pipe[-1]), "largest_lean_rad": float(np.max(np.abs(pipe))),
+                       "drift_last_0_5_s_rad": float(abs(pipe[-1] - pipe[-51])),
+                       "ramp_largest_lean_rad": float(np.max(np.abs(df["pipe_angle_rad"]))),
+                       "ramp_peak_drive_rate_rad_s": float(np.max(df["drive_rate_rad_s"]))}
+        print(f"{p} kPa: at rest {pipe[-1]:+.3f} rad (largest {out[str(p)]['largest_lean_rad']:.3f}); ramp lean "
+              f"{out[str(p)]['ramp_largest_lean_rad']:.3f} rad, peak drive rate {out[str(p)]['ramp_peak_drive_rate_rad_s']:.2f} rad/s",
+              flush=True)
+    return out
+
+
 def report(cache: Cache) -> dict:
     shell = need("shell")
     theta = shell["theta"]
@@ -277,7 +301,8 @@ def report(cache: Cache) -> dict:
     for lg in LOGS:
         table[lg]["campaign_robot"] = cache.rms(lg, camp)
     out = {"calibrated": theta, "set_at_kpa": SET_AT_KPA, "logs": table,
-           "folds": {lg: (done("out_" + lg) or {}).get("theta") for lg in LOGS}}
+           "folds": {lg: (done("out_" + lg) or {}).get("theta") for lg in LOGS},
+           "stands_and_ramp": stands_and_ramp(with_params(base_truth(), theta))}
     OUT.write_text(json.dumps(out, indent=2, sort_keys=True) + "\n")
     print(f"wrote {OUT.relative_to(ROOT)}")
     print("log | target (rad) | in sample | held out | the campaign's robot   (RMS rad: angle columns)")
