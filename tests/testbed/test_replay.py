@@ -124,3 +124,21 @@ def test_replay_reproduces_the_calibrations_in_sample_numbers(tmp_path, name):
     got = replay(_real(name), tmp_path / "twin.csv")
     for c, v in want.items():
         assert got[c] == pytest.approx(v, rel=2e-3, abs=1e-4), c
+
+
+def test_the_docs_table_is_the_calibrations():
+    """docs/testbed.md's held-out table states benchmarks/testbed_calibration.json's numbers."""
+    import re
+    from conftest import REPO
+    cal = _calibration()
+    text = (REPO / "docs" / "testbed.md").read_text()
+    rows = {"steer stand": STAND, "shell log (pendulum free)": SHELL, "coupled repeat 1": COUPLED[0],
+            "coupled repeat 2": COUPLED[1], "coupled repeat 3": COUPLED[2]}
+    for label, name in rows.items():
+        m = re.search(r"^\| " + re.escape(label) + r" \| [^|]+ \| ([^|]+) \| ([^|]+) \|", text, re.M)
+        assert m, label
+        entry = cal["logs"][name.removesuffix(".csv")]
+        for cell, key in zip(m.groups(), ("in_sample", "held_out")):
+            stated = [float(x) for x in re.findall(r"\d+\.\d+", cell)]
+            want = [entry[key][c] for c in ("pend_angle", "ball_roll.position", "roll_joint.position") if c in entry[key]]
+            assert stated == pytest.approx(want, abs=5e-4), (label, key, stated, want)
