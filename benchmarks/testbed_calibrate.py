@@ -36,6 +36,9 @@ its finished evaluations at no cost):
 * --report: the table (in sample, held out, before) to benchmarks/testbed_calibration.json.
 
 Nelder-Mead (SciPy, bounded) in scaled coordinates, --evals evaluations per fit (default 50).
+The committed JSON came from: --stages stand --evals 60; --stages shell --evals 120;
+--stages out_steering_static_stand_response --evals 80; the other out_ stages --evals 100;
+then --report.
 An evaluation costs about 4 s (stand), 3 s (shell log) and 3 s per repeat on one core.
 """
 from __future__ import annotations
