@@ -32,6 +32,17 @@ follows the Debye peak alpha(w_c) = alpha_p 2 x / (1 + x^2), x = w_c tau_h.
 
 The patch is round, so the same law acts in both rolling directions (the steer direction:
 the pipe's roll, and the drive direction), each with its own flat state.
+
+Two terms of the real robot that the campaign's robot has off (neutral: truth.yaml's campaign
+values; the calibrated twin's `real_robot:` section sets them, docs/testbed.md):
+
+* the set flat's size (`patch(set_at_kpa=)`): the skin took its set while the robot stood at
+  one pressure, so the flat in the skin has that pressure's patch size, not the current one's;
+* the shell's profile (`profile_torque`): the pipe's mounting holds the shell out at its two
+  poles (where the pipe meets the shell), so the shell is not a sphere but a body of
+  revolution about the pipe a little longer along the pipe.  Tilting the pipe off horizontal
+  brings a pole-ward, longer radius onto the floor and lifts the whole robot: a restoring
+  torque of pure geometry, the same at every pressure.
 """
 from __future__ import annotations
 
@@ -45,12 +56,20 @@ from pydrake.systems.primitives import SymbolicVectorSystem
 from roboball.sim.forces import SYM, Kin
 
 
-def patch(weight_n: float, radius_m: float, p_kpa: float, set_tension_n_m: float) -> dict:
-    """Geometry and stiffness of the contact patch at gauge pressure p (SI units)."""
+def patch(weight_n: float, radius_m: float, p_kpa: float, set_tension_n_m: float,
+          set_at_kpa: float | None = None) -> dict:
+    """Geometry and stiffness of the contact patch at gauge pressure p (SI units).
+
+    `set_at_kpa`: the pressure the skin took its set at (None: the current one, the campaign's
+    robot).  The flat crept into the skin over hours of standing; pumping the shell up for a
+    test does not un-creep it within minutes, so the flat keeps the patch size of the pressure it
+    was set at (a, beta, lift-off).  How much of it the skin holds against the membrane's pull
+    (the share s) is the current pressure's: the tension p R / 2 acts now."""
     p = p_kpa * 1e3
-    a = math.sqrt(weight_n / (math.pi * p))               # m: A = W / p
+    p_set = (set_at_kpa if set_at_kpa is not None else p_kpa) * 1e3
+    a = math.sqrt(weight_n / (math.pi * p_set))           # m: A = W / p at the set's pressure
     if a >= radius_m:
-        raise ValueError(f"pressure {p_kpa} kPa too low: the patch exceeds the shell")
+        raise ValueError(f"pressure {p_set / 1e3:g} kPa too low: the patch exceeds the shell")
     share = set_tension_n_m / (set_tension_n_m + p * radius_m / 2.0)   # of the flat the skin keeps
     return dict(a=a, beta=math.asin(a / radius_m),        # rad: half-angle of the flat
                 share=share,
@@ -70,6 +89,25 @@ def flat_torque(delta, pt: dict, m=SYM):
     return -sign * pt["share"] * m.minimum(elastic, pivot)
 
 
+def profile_torque(pipe_axis_z, pipe_axis_xy, weight_n: float, excess_m: float):
+    """Torque (N m, world frame: (x, y) components; none about z) of the shell's profile on a
+    robot whose pipe axis (unit vector u = R_WB e_y) has vertical component `pipe_axis_z` and
+    horizontal components `pipe_axis_xy` = (u_x, u_y).
+
+    The shell's radius grows from R at its equator to R + e at its poles (the pipe's ends hold
+    it out): r(psi) = R + e cos^2(psi), psi measured from the pipe axis.  The centre of a
+    convex body of revolution on a floor stands at its support height, to first order in e
+    h = R + e sin^2(phi), phi the pipe axis's tilt from horizontal (sin phi = u_z).  The robot's
+    weight W lifted by h is the potential W e u_z^2; its torque is u x (-dV/du) =
+    -2 W e u_z (u x z_hat) = -2 W e u_z (u_y, -u_x, 0): -W e sin(2 phi) about the roll axis, zero
+    for any turn about the pipe (rolling in the drive direction keeps the equator down).
+    Pure geometry: it does not depend on the pressure, and it is about the pipe's horizontal,
+    not about the robot's rest."""
+    ux, uy = pipe_axis_xy
+    k = -2.0 * weight_n * excess_m * pipe_axis_z
+    return k * uy, -k * ux
+
+
 def hysteresis_torque(omega, pt: dict, alpha_peak: float, loss_time_s: float):
     """Rolling loss (N m) of the bedliner's hysteresis at rolling rate omega (rad/s); odd in
     omega, so it needs no sign regularisation."""
@@ -77,12 +115,13 @@ def hysteresis_torque(omega, pt: dict, alpha_peak: float, loss_time_s: float):
     return -(3.0 / 16.0) * alpha_peak * pt["weight"] * pt["a"] * 2.0 * x / (1.0 + x * x)
 
 
-def shell_system(pt: dict, bedliner: dict, roll_from_flat: float = 0.0):
+def shell_system(pt: dict, bedliner: dict, roll_from_flat: float = 0.0, profile_excess_m: float = 0.0):
     """Factory (layout, dt) -> the shell as a discrete Drake system.  State: how far the shell
     has rolled from its flat in the steer (roll) and drive directions, less `roll_from_flat`
     (rad), the roll direction's value at the start (a hand held the shell away from the flat it
     rests on); input: plant state [q; v]; output: generalised force.  The flat's creep is
-    integrated implicitly at the test bed's step, Delta+ = (Delta + dt omega) / (1 + dt / T_set)."""
+    integrated implicitly at the test bed's step, Delta+ = (Delta + dt omega) / (1 + dt / T_set).
+    `profile_excess_m`: the shell's polar excess e (`profile_torque`; 0: a sphere)."""
     t_set, alpha, tau_h = bedliner["creep_s"], bedliner["hysteresis_loss_peak"], bedliner["loss_time_s"]
 
     def make(layout, dt):
@@ -101,6 +140,10 @@ def shell_system(pt: dict, bedliner: dict, roll_from_flat: float = 0.0):
             tau[layout.base_v + i] = tau[layout.base_v + i] + R[i][1] * t_drive
         if "drive" in layout.joint_v:
             tau[layout.joint_v["drive"]] = tau[layout.joint_v["drive"]] - t_drive
+        if profile_excess_m:   # a floor-on-shell torque: on the base only, as the flat's
+            tx, ty = profile_torque(R[2][1], (R[0][1], R[1][1]), pt["weight"], profile_excess_m)
+            tau[layout.base_v] = tau[layout.base_v] + tx
+            tau[layout.base_v + 1] = tau[layout.base_v + 1] + ty
         relax = 1.0 + dt / t_set
         system = SymbolicVectorSystem(
             state=[s_roll, d_drive], input=np.concatenate([q, v]),

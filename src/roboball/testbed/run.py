@@ -55,8 +55,11 @@ def truth_spec(kind: str, p_kpa: float | None, truth: dict, extras=ALL_EXTRAS,
     if not stand and "shell" in extras:
         off_flat = release - robot.shell_rest_angle if kind == "shell_rock" and release is not None else 0.0
         systems += shell_truth_systems(truth, p_kpa, robot, off_flat)
+    # the steer motor's rotor behind its gear (0 in the campaign's robot): reflected inertia on the joint
+    rotor = float(truth.get("twin", {}).get("steer_rotor_inertia_kg_m2", 0.0))
+    added = {"steer": rotor} if rotor else {}
     return SimSpec(kind=kind, contact=contact, friction=friction, friction_params=friction_params,
-                   pressure_kpa=p_kpa, shell=shell, dt=dt, extra_terms=terms, extra_systems=systems, robot=robot,
+                   added_inertia=added, pressure_kpa=p_kpa, shell=shell, dt=dt, extra_terms=terms, extra_systems=systems, robot=robot,
                    resolution_hint=sim["hydro_resolution_hint_m"], ramp_length_m=ramp_length_m,
                    sampled_output_ports=True,   # Drake's default: the campaign as it was recorded
                    approximation="lagged")
