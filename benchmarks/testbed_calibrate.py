@@ -61,7 +61,7 @@ WORK = ROOT / "results" / "testbed_calibration"
 OUT = ROOT / "benchmarks" / "testbed_calibration.json"
 
 from roboball.errors import RoboballError  # noqa: E402
-from roboball.testbed.physics import load_truth, merged  # noqa: E402
+from roboball.testbed.physics import load_truth  # noqa: E402
 from roboball.testbed.replay import read_log, rms_by_column, simulate_log  # noqa: E402
 
 STAND = "steering_static_stand_response"
