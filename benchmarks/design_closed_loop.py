@@ -199,14 +199,13 @@ def verdict(case: dict, dg: dict, det: dict) -> dict:
     when it reports both or neither), `tied` (the other listed as its equivalent) and `decided`
     (picked, and the other no longer equivalent)."""
     if case["tie"] == "steer_setting":
-        from roboball.diagnose.scored import Settings
-
         picked = "free" if "steer_angle@0" in det["final_values"] else "locked"
         cv = {k: det["steer_settings"][k]["rmse_heldout"] for k in PAIRS["steer_setting"]}
-        # decided: the other setting's held-out RMS is worse by the margin the choice asks of the
-        # free one (roboball.diagnose.steer); within it, locked is reported by default
-        apart = max(cv.values()) / min(cv.values()) - 1.0 >= Settings().cv_gain
-        return {"picked": picked, "tied": not apart, "decided": apart, "rmse_heldout": cv}
+        # the diagnosis's own decision (roboball.diagnose.steer): the lower held-out RMS by the
+        # margin and significantly over the recording's independent samples; undecided is a tie
+        decided = bool(det["steer_decision"]["decided"])
+        return {"picked": picked, "tied": not decided, "decided": decided, "rmse_heldout": cv,
+                "test": det["steer_decision"]["test"]}
     a, b = PAIRS[case["tie"]]
     chosen = {m["effect"]: m for m in dg["missing_physics"]}
     has_a, has_b = a in chosen, b in chosen

@@ -2,6 +2,8 @@
 nuisance of the data that hold its start, fitted there with the model frozen, in a block fold as
 in a held-out release's fold (issue 24: the real shell log's first block was predicted from a
 state extrapolated backwards from the later, tiny swings)."""
+import math
+
 import numpy as np
 import pytest
 
@@ -80,3 +82,50 @@ def test_the_time_blocks_tile_the_window_and_split_the_free_response_evenly(sing
     assert all(hi == lo for (_, hi), (lo, _) in zip(blocks, blocks[1:]))       # contiguous, no gap or overlap
     after = [int(np.sum(w.t[lo:hi] >= w.t0)) for lo, hi in blocks]
     assert max(after) - min(after) <= 1                                       # even split after the release
+
+
+# ---- two models' held-out errors compared (roboball.diagnose.crossval.paired_heldout) --------
+def _heldout(errors_a, errors_b, t=None):
+    """Two cross-validated models whose held-out errors on one window are the given arrays."""
+    from types import SimpleNamespace
+
+    from roboball.diagnose.crossval import paired_heldout
+
+    n = len(errors_a)
+    t = np.arange(n) * 0.01 if t is None else t
+    y = np.zeros(n)
+    w = SimpleNamespace(index=0, t=t, y=y)
+    a = Scored(effects=(), full=None, cv_pred={0: np.asarray(errors_a, float)})
+    b = Scored(effects=(), full=None, cv_pred={0: np.asarray(errors_b, float)})
+    return paired_heldout(a, [w], b, [w])
+
+
+def test_white_held_out_errors_twice_as_large_are_a_decided_difference_and_equal_ones_are_not():
+    rng = np.random.default_rng(1)
+    e = rng.normal(0.0, 1e-3, 2000)
+    res = _heldout(e, 2.0 * rng.normal(0.0, 1e-3, 2000))
+    assert res["n"] == 2000 and res["n_eff"] > 1000          # white: every sample independent
+    assert res["ms_ratio"] == pytest.approx(4.0, rel=0.15) and res["p_two_sided"] < 1e-12
+    same = _heldout(e, rng.permutation(e))
+    assert same["ms_ratio"] == pytest.approx(1.0) and same["p_two_sided"] > 0.9
+
+
+def test_a_misfit_that_lasts_a_swing_counts_as_few_independent_samples():
+    """A slow sinusoidal misfit, two swings in 2000 samples: the same RMS ratio that white errors
+    make certain is undecided here, because the recording holds a handful of independent samples."""
+    t = np.arange(2000) * 0.01
+    rng = np.random.default_rng(2)
+    slow_a = 1e-3 * np.sin(2 * np.pi * t / 10.0 + 0.3) + rng.normal(0, 1e-5, t.size)
+    slow_b = 1.5e-3 * np.sin(2 * np.pi * t / 10.0 + 1.1) + rng.normal(0, 1e-5, t.size)
+    res = _heldout(slow_a, slow_b, t)
+    assert res["tau_samples"] > 50 and res["n_eff"] < 40
+    assert res["ms_ratio"] > 2.0 and res["p_two_sided"] > 0.05
+    white = _heldout(rng.normal(0, 1e-3, 2000), rng.normal(0, 1.5e-3, 2000))
+    assert white["p_two_sided"] < 1e-6
+
+
+def test_only_the_samples_both_models_predicted_are_compared():
+    e = np.r_[np.full(50, np.nan), np.random.default_rng(3).normal(0, 1e-3, 500)]
+    res = _heldout(e, 3.0 * np.nan_to_num(e, nan=1.0))
+    assert res["n"] == 500 and res["ms_ratio"] == pytest.approx(9.0)
+    assert math.isnan(_heldout([np.nan] * 5, [1.0] * 5)["p_two_sided"])

@@ -132,7 +132,9 @@ def test_real_shell_log_of_unrecorded_steer_setting_is_the_free_pendulum_with_st
     assert f["rmse_heldout_after"] <= 0.03
     assert f["drake_rmse_after"] <= 0.015          # the augmented Drake model swings with the log
     report = (tmp_path / "report.md").read_text()
-    assert "pendulum free on its steer joint" in report and "reported: free" in report
+    assert "pendulum free on its steer joint" in report and "reported: free, decided" in report
+    # decided on the data's own evidence: sevenfold in RMS over a dozen independent samples
+    assert d.steer_decision["decided"] and d.steer_decision["test"]["p_two_sided"] < 1e-6
     assert json.loads((tmp_path / "details.json").read_text())["steer_settings"] == json.loads(
         json.dumps(d.steer_settings))
 

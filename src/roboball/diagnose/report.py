@@ -86,6 +86,7 @@ def details(d: Diagnosis, loc_base, loc_final) -> dict:
         "timings": d.timings,
         "notes": d.prep.notes,
         "steer_settings": d.steer_settings,
+        "steer_decision": d.steer_decision,
         # each equivalent explanation's whole model (F - e + u), for `roboball design`
         "alternatives": {e: [{"effect": a["effect"], "values": a.get("values", {}), "ci95": a.get("ci95_all", {})}
                              for a in alts] for e, alts in d.alternatives.items()},

@@ -26,6 +26,7 @@ class Settings:
     equivalent_tol: float = 0.10      # an alternative's held-out RMS within 10% of the chosen model's
     bic_min: float = 10.0
     cv_gain: float = 0.05
+    decide_p: float = 0.05            # a steer setting is decided when its held-out gain is this significant
     material_noise: float = 4.0       # an effect must lower the held-out mean square by >= 4 sigma^2
     material_share: float = 0.0       # ... (and, if set, this share of the baseline's held-out mean square)
     max_effects: int = 4

@@ -76,6 +76,8 @@ class Diagnosis:
     alternatives: dict = field(default_factory=dict)   # effect -> equivalent explanations (equivalents.py)
     # a shell release of unrecorded steer setting: each setting's effects and held-out RMS
     steer_settings: dict = field(default_factory=dict)
+    # ... and which was reported, whether the data decided it, and the paired test (diagnose.steer)
+    steer_decision: dict = field(default_factory=dict)
 
     @property
     def effects(self) -> tuple:

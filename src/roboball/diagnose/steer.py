@@ -3,6 +3,9 @@ diagnosis made both ways (roboball.diagnose.diagnose's `steer_joint`; docs/diagn
 release with the pendulum free")."""
 from __future__ import annotations
 
+import math
+
+from roboball.diagnose.crossval import paired_heldout
 from roboball.diagnose.data import pool, prepare
 from roboball.diagnose.scored import Settings
 from roboball.diagnose.select import diagnose_prepared
@@ -15,9 +18,15 @@ STEER_JOINT = ("locked", "free", "unknown")
 
 def either_steer_setting(recs, prep, settings, log, steer_friction: dict | None):
     """A shell release whose steer setting was not recorded, diagnosed with the joint locked and
-    with the pendulum free; the free one is reported where its held-out RMS is lower by the keep
-    rule's margin (`Settings.cv_gain`: it fits the joint's state besides), else the locked one,
-    the contract's default.  The report's notes give both."""
+    with the pendulum free.  A setting is decided when its held-out RMS is lower than the other's
+    by the keep rule's margin (`Settings.cv_gain`: the free one fits the joint's state besides),
+    the gain is significant (`Settings.decide_p`, crossval.paired_heldout: a short or small
+    release holds few independent samples, and there two unreliable fits can differ by more than
+    the margin by chance), and its diagnosis explains the recording (not `unexplained`: between
+    two misfits, the free pendulum's fitted release state absorbs what the locked model shows).
+    The decided setting is reported; an undecided one reports the contract's default, locked, and
+    says that the recording cannot tell (`roboball design` names the recording that would).  The
+    report's notes give both."""
     runs = {}
     for setting in ("locked", "free"):
         if log:
@@ -26,20 +35,50 @@ def either_steer_setting(recs, prep, settings, log, steer_friction: dict | None)
         p = prep if setting == "locked" else pool([prepare(r) for r in recs])
         model = ShellSteerModel(friction=steer_friction) if setting == "free" else None
         runs[setting] = diagnose_prepared(p, settings=settings, log=log, model=model)
+    s = settings or Settings()
     cv = {k: d.final.cv_rmse for k, d in runs.items()}
-    gain = (settings or Settings()).cv_gain
-    chosen = "free" if cv["free"] < (1.0 - gain) * cv["locked"] else "locked"
+    # ms_ratio > 1: the free model's held-out errors are the smaller
+    test = paired_heldout(runs["free"].final, runs["free"].prep.windows, runs["locked"].final, runs["locked"].prep.windows)
+    better = "free" if cv["free"] < (1.0 - s.cv_gain) * cv["locked"] else (
+        "locked" if cv["locked"] < (1.0 - s.cv_gain) * cv["free"] else None)
+    significant = test["p_two_sided"] < s.decide_p and (test["ms_ratio"] > 1.0) == (better == "free")
+    # two settings that both leave the recording unexplained are compared on their misfits, and
+    # the free one's fitted joint state can absorb a misfit the locked one shows
+    explains = better is not None and runs[better].verdict != "unexplained"
+    decided = better is not None and significant and explains
+    chosen = better if decided else "locked"
     d = runs[chosen]
     said = "; ".join(f"{k}: {' + '.join(runs[k].chosen) or 'nothing missing'}, held-out RMS {cv[k]:.4g}"
                      for k in ("locked", "free"))
+    why = (f"held-out RMS {cv[chosen]:.4g} against {cv[_other(chosen)]:.4g}, more than {s.cv_gain:.0%} below, "
+           f"p = {test['p_two_sided']:.2g} over {test['n_eff']:.3g} effectively independent samples")
+    if decided:
+        verdict = f"reported: {chosen}, decided ({why})"
+    elif better is not None and significant:
+        verdict = (f"reported: locked, the contract's default: UNDECIDED, {better}'s held-out RMS is lower "
+                   f"({cv[better]:.4g} against {cv[_other(better)]:.4g}, p = {test['p_two_sided']:.2g}) but its "
+                   f"diagnosis leaves the recording unexplained")
+    elif better is None:
+        verdict = (f"reported: locked, the contract's default: UNDECIDED, the two held-out RMS are within "
+                   f"{s.cv_gain:.0%} of each other")
+    else:
+        verdict = (f"reported: locked, the contract's default: UNDECIDED, {better}'s held-out RMS is lower "
+                   f"({cv[better]:.4g} against {cv[_other(better)]:.4g}) but not significantly "
+                   f"(p = {test['p_two_sided']:.2g} over {test['n_eff']:.3g} effectively independent samples; "
+                   f"{s.decide_p:g} needed)")
     d.prep.notes.append(f"the steer joint's setting was not recorded (steer_joint unknown): diagnosed with it "
-                        f"locked and with the pendulum free ({said}); reported: {chosen}, "
-                        + ("its held-out RMS more than " if chosen == "free" else "the free one's held-out RMS not ")
-                        + f"{gain:.0%} below the other's")
+                        f"locked and with the pendulum free ({said}); {verdict}")
     # each setting's whole fitted model and intervals, so `roboball design` can simulate both
     d.steer_settings = {k: {"effects": list(runs[k].chosen), "rmse_heldout": cv[k], "values": runs[k].final.values,
                             "ci95": {p: list(v) for p, v in runs[k].ci95.items()}} for k in runs}
+    d.steer_decision = {"reported": chosen, "decided": decided, "lower_heldout": better,
+                        "test": {k: (float(f"{v:.6g}") if isinstance(v, float) and math.isfinite(v) else v)
+                                 for k, v in test.items()}}
     return d
+
+
+def _other(setting: str) -> str:
+    return "free" if setting == "locked" else "locked"
 
 
 def steer_setting(prep, given: str | None) -> str:
