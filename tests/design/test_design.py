@@ -217,3 +217,37 @@ def test_large_shell_releases_separate_viscous_from_quadratic_loss(tmp_path):
     assert rms[np.argmin(amp)] > at_user                      # and at smaller swings they part too
     best = experiments(src, choice, g, m.rest)[0]
     assert all(abs(r) == pytest.approx(0.6) for r in best["release_from_rest_rad"]) and best["settles"], best
+
+
+def test_a_locked_candidate_refitted_with_the_pendulum_free_gets_a_release_state_for_every_window(tmp_path):
+    """An effect's candidates of a shell diagnosis reported locked (its steer setting undecided)
+    are also simulated with the pendulum free (roboball.design.plan.steer_settings); their fitted
+    values hold no pendulum release state, so the refit starts each window's at rest on its joint
+    and fits it (it once failed with KeyError 'steer_angle@0', in 2 of 10 closed-loop cases)."""
+    from roboball.design.inputs import Candidate
+    from roboball.design.refit import _problems
+    from roboball.diagnose.data import prepare, read
+    from roboball.diagnose.fit import Engine
+    from roboball.reduced.models import model_for
+    from roboball.reduced.shell_steer import ShellSteerModel
+
+    m = model_for("shell_rock")
+    rng = np.random.default_rng(4)
+    t_free = np.arange(0.0, 4.0, 0.01)
+    y = np.r_[np.full(100, m.rest), m.rest + np.linspace(0.0, 0.3, 50), np.full(100, m.rest + 0.3),
+              m.rest + 0.3 * np.exp(-0.4 * t_free) * np.cos(4.6 * t_free)]
+    y = y + rng.normal(0.0, 3e-4, y.size)
+    path = write_recording(tmp_path / "shell.csv", pd.DataFrame({"time_s": np.arange(y.size) * 0.01, "pipe_angle_rad": y}),
+                           {"kind": "shell_rock", "pressure_kpa": 13.8})
+    prep = prepare(read(path))
+    cand = Candidate("viscous_damping", ("viscous_damping",),
+                     {**Engine(m, prep).initial_values(), "viscous_damping.c": 1.0}, {}, "locked")
+    free = ShellSteerModel()
+    engine = Engine(free, prep)
+    probs = _problems(engine, cand, prep, len(prep.windows), [])
+    for w in prep.windows:
+        assert probs[0].values[f"steer_angle@{w.index}"] == free.steer_rest
+        assert probs[0].values[f"steer_rate@{w.index}"] == 0.0
+    assert {f"steer_angle@{w.index}" for w in prep.windows} <= set(probs[0].free)
+    engine.fit(probs, max_iter=2)           # runs: every window has its state
+    assert np.isfinite(probs[0].rss)

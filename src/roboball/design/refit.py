@@ -47,8 +47,14 @@ def _problems(engine: Engine, cand, prep: Prepared, n_user: int, masks_new: list
     for w in prep.windows[n_user:]:
         values[f"q0@{w.index}"] = w.q0
         values[f"ts@{w.index}"] = 0.0
+    # the pendulum's release state: a new window's starts at rest on its joint, and so does a user
+    # window's where the candidate was fitted with the joint locked (an effect's candidates simulated
+    # with the pendulum free, roboball.design.plan.steer_settings); it is fitted either way
+    for w in prep.windows:
         for h in model.hidden_release:
-            values[f"{h.name}@{w.index}"] = model.steer_rest if h.name == "steer_angle" else 0.0
+            key = f"{h.name}@{w.index}"
+            if w.index >= n_user or key not in values:
+                values[key] = model.steer_rest if h.name == "steer_angle" else 0.0
     held = {k: engine.defaults[k] for k in effect_keys(cand.effects) if k in model.held_params}
     values.update(held)
     sensor = [LAG_KEY] if LAG_KEY in values else []
