@@ -315,11 +315,12 @@ def table(results: list) -> str:
 
 
 def _tied(r: dict) -> bool:
-    """Whether the case's first recording tied; a steer setting's from its two held-out RMS, so
-    that runs saved before the tie meant "within the margin" are scored the same way."""
+    """Whether the case's first recording tied; a steer setting's as its diagnosis decided it
+    (`test` saved beside), or in runs saved before the diagnosis decided it, from its two
+    held-out RMS within the margin (the rule of those runs)."""
     first = r.get("first", {})
     cv = first.get("rmse_heldout")
-    if r["tie"] == "steer_setting" and cv:
+    if r["tie"] == "steer_setting" and cv and "test" not in first:
         from roboball.diagnose.scored import Settings
 
         return max(cv.values()) / min(cv.values()) - 1.0 < Settings().cv_gain
