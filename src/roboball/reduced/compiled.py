@@ -13,10 +13,11 @@ on the number of threads).
 Nothing here re-implements a law: the effect laws of roboball.physics.effects and the Majd law of
 roboball.physics.friction are compiled as they are, with the scalar math namespace
 (roboball.physics.mathns.scalar).  Each acceleration is written in the same operation order as
-its NumPy twin (roboball.reduced.stand, .shell, .shell_steer), and the effects are added in the
+its NumPy twin (roboball.reduced.stand, .shell), and the effects are added in the
 order ReducedModel.effect_plan gives NumPy (rows where an effect's magnitude is zero get no term:
 NumPy adds a signed zero there).  The ramp model's equations (contact mode, derivative) are
-not written twice at all: roboball.reduced.ramp_equations serves its NumPy loop and `_run_ramp`
+not written twice at all, nor are the free-steer shell's: roboball.reduced.ramp_equations and
+roboball.reduced.shell_steer_equations serve their NumPy loops and `_run_ramp`, `_run_steer`
 alike, compiled here like the laws.  Where NumPy's transcendental functions are libm's (the
 pipeline's pinned numerics, roboball.pipeline.numerics) the two loops agree to the bit; with
 NumPy's own SIMD functions (a wide CPU, unpinned) they differ in the last bits of sin, exp and
@@ -45,6 +46,7 @@ from roboball.physics import effects as fx
 from roboball.physics import friction as friction_laws
 from roboball.physics.mathns import scalar
 from roboball.reduced import ramp_equations as req
+from roboball.reduced import shell_steer_equations as seq
 
 M = scalar()
 
@@ -202,26 +204,18 @@ def _run_shell(q0, v0, n_steps, dt, k_g, mrd, mrd2, m0, codes, par, Q, V):
             V[r, k] = v
 
 
+_steer_terms = _jit()(seq.pendulum_terms)
+_steer_solve = _jit()(seq.solve)
+
+
 @_jit()
 def _steer_accel(ph, th, v, w, r, geo, mj, k_g, codes, par):
-    """roboball.reduced.shell_steer.ShellSteerModel.equations' accel for row r; geo = (ay, az,
-    by, bz, k11, k12, m22, R, g, rest), mj = Majd's (f_w, f_c, sigma, omega_c, n)."""
-    ay, az, by, bz, k11, k12, m22, R, g, rest = geo
-    ca, sa = math.cos(ph), math.sin(ph)
-    ab = ph + th
-    cb, sb = math.cos(ab), math.sin(ab)
-    pA = -(ay * sa + az * ca)
-    qA = ay * ca - az * sa
-    pB = -(by * sb + bz * cb)
-    qB = by * cb - bz * sb
-    m11 = k11 - 2.0 * R * (pA + pB)
-    m12 = k12 - R * pB
-    vb = v + w
-    f1 = -(qA * (R * v * v + g) + qB * (R * vb * vb + g))
-    f2 = _majd(w, mj[0], mj[1], mj[2], mj[3], mj[4], M) - g * qB
-    f1 = _add_effects(f1, ph - rest, v, codes, par, r, k_g)
-    det = m11 * m22 - m12 * m12
-    return (m22 * f1 - m12 * f2) / det, (m11 * f2 - m12 * f1) / det
+    """ShellSteerModel.equations' accel for row r (roboball.reduced.shell_steer_equations); geo =
+    ShellSteerModel.geometry(), mj = Majd's (f_w, f_c, sigma, omega_c, n)."""
+    m11, m12, f1, g_qb = _steer_terms(ph, th, v, w, geo, M)
+    f2 = _majd(w, mj[0], mj[1], mj[2], mj[3], mj[4], M) - g_qb
+    f1 = _add_effects(f1, ph - geo[9], v, codes, par, r, k_g)
+    return _steer_solve(m11, m12, geo[6], f1, f2)
 
 
 @_jit(parallel=True)

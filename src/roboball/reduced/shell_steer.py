@@ -34,6 +34,8 @@ import numpy as np
 
 from roboball.config import RobotFacts, load_robot
 from roboball.physics import friction as friction_laws
+from roboball.physics.mathns import NP
+from roboball.reduced import shell_steer_equations as eq
 from roboball.reduced.base import DT, BaseParam, ReducedModel, active_effects
 from roboball.reduced.shell import composite, rolling_radius
 
@@ -161,37 +163,20 @@ class ShellSteerModel(ReducedModel):
 
     def equations(self, extra):
         """accel(phi, theta, phi', theta') -> (phi'', theta'') for a batch: the module docstring's
-        equations with each body's first moments m (c_y, c_z) folded in, and w_y = -u_z, |u| = d
-        (fewer array operations per call: this is the diagnosis's inner loop)."""
-        mA, yA, zA, iA = self.a
-        mB, yB, zB, iB = self.b
-        R, g, rest = self.radius, self.g, self.rest
+        equations (roboball.reduced.shell_steer_equations, shared with the compiled loop), the
+        joint's Majd friction on theta', `extra` (the effects) on the roll."""
+        geo = self.geometry()
+        m22, rest = geo[6], geo[9]
         mj = self.majd
         f_w, f_c, sigma, omega_c, n = mj["f_w"], mj["f_c"], mj["sigma"], mj["omega_c"], mj["n"]
-        ay, az, by, bz = mA * yA, mA * zA, mB * yB, mB * zB
-        k11 = mA * (yA * yA + zA * zA + R * R) + mB * (yB * yB + zB * zB + R * R) + iA + iB
-        k12 = mB * (yB * yB + zB * zB) + iB
-        m22 = k12 + self.delta_i      # a geared joint's J N^2 on its own diagonal
         majd = friction_laws.majd
 
         def accel(ph, th, v, w):
-            ca, sa = np.cos(ph), np.sin(ph)
-            ab = ph + th
-            cb, sb = np.cos(ab), np.sin(ab)
-            # m u_y and m u_z of each body (u = dP/da; y horizontal, z up)
-            pA = -(ay * sa + az * ca)
-            qA = ay * ca - az * sa
-            pB = -(by * sb + bz * cb)
-            qB = by * cb - bz * sb
-            m11 = k11 - 2.0 * R * (pA + pB)
-            m12 = k12 - R * pB
-            vb = v + w
-            f1 = -(qA * (R * v * v + g) + qB * (R * vb * vb + g))
-            f2 = majd(w, f_w, f_c, sigma, omega_c, n) - g * qB
+            m11, m12, f1, g_qb = eq.pendulum_terms(ph, th, v, w, geo, NP)
+            f2 = majd(w, f_w, f_c, sigma, omega_c, n) - g_qb
             if extra is not None:
                 f1 = extra(ph - rest, v, f1)
-            det = m11 * m22 - m12 * m12
-            return (m22 * f1 - m12 * f2) / det, (m11 * f2 - m12 * f1) / det
+            return eq.solve(m11, m12, m22, f1, f2)
 
         return accel
 
