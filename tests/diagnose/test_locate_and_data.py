@@ -342,3 +342,31 @@ def test_fit_noise_is_the_sensor_noise_of_what_the_fit_compares():
     assert np.allclose(w.observe(np.ones_like(t)), 1.0)
     inner = slice(30, -30)
     assert np.allclose(seen[inner] - y[inner], np.mean((np.arange(-6, 7) * DT) ** 2))   # f'' h^2/6-type bias
+
+
+def test_a_hand_s_tremor_does_not_hide_a_small_release_s_hold():
+    """1 s at rest (-0.033), moved by 0.08 rad and held 1.2 s with the test bed's hand tremor (1.5
+    mrad at about 2 Hz), let go into less than one slow swing, through the test bed's sensors: the
+    tremor is faster than 5% of so small a record's peak speed and split the hold into stretches
+    under 0.4 s, so the stillness at rest passed for the hold and the hand's move for the release
+    (the steer-setting closed loop's first recordings, docs/diagnosis.md)."""
+    import pandas as pd
+
+    from roboball.testbed.physics import load_truth
+    from roboball.testbed.sensors import hand_phase, measure
+
+    truth, rate = load_truth(), 1000.0
+    rng = np.random.default_rng(5)
+    hand, held = hand_phase(-0.033, -0.113, {"move_s": [0.8, 0.8], "hold_s": [1.2, 1.2], "tremor_rad": 0.0015},
+                            rng, rate)
+    t_free = np.arange(1, 2001) / rate
+    free = -0.033 + (held + 0.033) * np.cos(2.1 * t_free)          # a slow half swing and a bit
+    y = np.r_[np.full(1000, -0.033), hand, free]
+    dense = pd.DataFrame({"time_s": np.arange(len(y)) / rate, "pipe_angle_rad": y,
+                          "pipe_rate_rad_s": np.gradient(y) * rate})
+    rec = measure(dense, truth["sensors"], rng)
+    t_go = (1000 + len(hand) - 1) / rate
+    rel = _hold_releases(rec.time_s.to_numpy(), rec.pipe_angle_rad.to_numpy(), "shell_rock")
+    assert len(rel) == 1
+    assert rel[0].t_release_s == pytest.approx(t_go, abs=0.05)
+    assert rel[0].y_release == pytest.approx(-0.113, abs=3e-3)
