@@ -251,3 +251,21 @@ def test_a_locked_candidate_refitted_with_the_pendulum_free_gets_a_release_state
     assert {f"steer_angle@{w.index}" for w in prep.windows} <= set(probs[0].free)
     engine.fit(probs, max_iter=2)           # runs: every window has its state
     assert np.isfinite(probs[0].rss)
+
+
+def test_a_candidate_that_diverges_at_a_release_separates_nothing_there():
+    """A candidate's prediction that runs off to NaN at one release (a free pendulum's refit at a
+    large release) gave that release no closest pair, and the ranking failed (TypeError, one case
+    of the steer-setting closed loop); it now counts as no separation there."""
+    from types import SimpleNamespace
+
+    from roboball.design.rank import scores
+
+    t = np.arange(0.0, 4.0, 0.1)
+    a = np.vstack([0.1 * np.cos(t), 0.3 * np.cos(t)])
+    b = np.vstack([0.1 * np.cos(1.1 * t), np.full_like(t, np.nan)])
+    g = SimpleNamespace(central={"a": a, "b": b}, var={"a": np.zeros_like(a), "b": np.zeros_like(b)},
+                        moving=np.ones_like(a, bool), t=t, releases=np.array([0.1, 0.3]))
+    sc = scores(g, 1e-3, 2.0)
+    assert all(sc.pair[i][w] == ("a", "b") for i in range(len(sc.durations)) for w in range(2))
+    assert np.all(sc.gap[:, 1] == 0.0) and np.all(sc.gap[:, 0] > 0.0)

@@ -53,6 +53,9 @@ def scores(g: Grid, noise: float, window_s: float) -> Scores:
         z = d2 / (noise ** 2 + g.var[a] + g.var[b])
         for i, m in enumerate(within):
             gi, si = (z * m).sum(axis=1), (d2 * m).sum(axis=1)
+            # a candidate that diverges at a release (NaN or inf) says nothing there: no separation
+            bad = ~(np.isfinite(gi) & np.isfinite(si))
+            gi, si = np.where(bad, 0.0, gi), np.where(bad, 0.0, si)
             for w in range(W):
                 if gi[w] < gap[i, w]:
                     gap[i, w], sq[i, w], pair[i][w] = gi[w], si[w], (a, b)
