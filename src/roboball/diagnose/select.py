@@ -45,6 +45,7 @@ import numpy as np
 from roboball.physics import effects as fx
 from roboball.diagnose.crossval import CrossValidation
 from roboball.diagnose.data import Prepared
+from roboball.diagnose import hidden
 from roboball.diagnose.equivalents import bic_on, equivalents
 from roboball.diagnose.fit import Engine, Problem, effect_keys
 from roboball.diagnose.keep import KeepRule, immaterial
@@ -262,15 +263,23 @@ class Selector(KeepRule, CrossValidation):
         # the cost of dry friction has narrow basins, so a start from the distorted values alone
         # can miss the optimum.  The beam's other parents add diversity of their own, so they get
         # the nominal values unscaled: their grids cost a sixth of the first parent's.
+        # A free pendulum's hidden release states get each parent's starts chosen per release
+        # (roboball.diagnose.hidden), for all parents in one batch, once per parent.
         trials = []
         first = pairs[0][0]
+        nominals = {}
+        for parent, _ in pairs:
+            if id(parent) not in nominals:
+                nominal = dict(eng.initial_values())
+                nominal.update({k: v for k, v in parent.values.items() if "." in k})
+                nominals[id(parent)] = nominal
+        chosen = dict(zip(nominals, hidden.variants(eng, list(nominals.values()))))
         for parent, c in pairs:
-            nominal = dict(eng.initial_values())
-            nominal.update({k: v for k, v in parent.values.items() if "." in k})
+            nominal = nominals[id(parent)]
             effects = tuple(parent.effects) + (c,)
             trials.append((self.full_problem(effects, parent.values), c, parent.values))
             variants = _rescaled(nominal, parent.effects) if parent is first else [nominal]
-            variants += eng.hidden_variants(nominal)
+            variants += chosen[id(parent)]
             trials.append((self.full_problem(effects, nominal), c, variants))
         starts = eng.best_starts(trials)
         for (p, _, _), v in zip(trials, starts):
