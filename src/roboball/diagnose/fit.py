@@ -25,8 +25,8 @@ import numpy as np
 
 from roboball.physics import effects as fx
 from roboball.diagnose.bounded import applies as bounded_grid, best_costs
-from roboball.diagnose import hidden
 from roboball.diagnose.data import Prepared
+from roboball.diagnose.hidden import chosen_starts
 from roboball.diagnose.sensor import LAG_BOUNDS, LAG_KEY, LAG_TYPICAL, lag_grid, lag_of
 from roboball.reduced.base import DT, ReducedModel
 from roboball.reduced.integrate import hermite
@@ -409,7 +409,7 @@ class Engine:
         chosen per release from the model's `hidden_starts` (roboball.diagnose.hidden): a free
         pendulum's state at the release has to be searched for, fits from a wrong swing phase end
         in local minima.  Empty when the model has none."""
-        return hidden.variants(self, [values])[0]
+        return chosen_starts(self, [values])[0]
 
     def best_of(self, prob: Problem, candidates: list) -> dict:
         """The candidate values of lowest cost over the problem's samples (one batched run)."""

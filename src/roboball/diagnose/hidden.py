@@ -23,7 +23,7 @@ import numpy as np
 K_SEVERAL = 7          # variants kept when the recording has several releases
 
 
-def variants(engine, values_list: list) -> list:
+def chosen_starts(engine, values_list: list) -> list:
     """For each of `values_list` (dicts of values), the copies of it with the model's hidden
     release states at chosen starts (module docstring), the best first: a list per entry, empty
     when the model has no hidden states.  One batched simulation for all entries; the choice is

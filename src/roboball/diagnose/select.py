@@ -45,9 +45,9 @@ import numpy as np
 from roboball.physics import effects as fx
 from roboball.diagnose.crossval import CrossValidation
 from roboball.diagnose.data import Prepared
-from roboball.diagnose import hidden
 from roboball.diagnose.equivalents import bic_on, equivalents
 from roboball.diagnose.fit import Engine, Problem, effect_keys
+from roboball.diagnose.hidden import chosen_starts
 from roboball.diagnose.keep import KeepRule, immaterial
 from roboball.diagnose.scored import Scored, Settings
 from roboball.diagnose.sensor_fit import fit_sensor_lag, run_with_sensor_lag, without_stale
@@ -263,17 +263,11 @@ class Selector(KeepRule, CrossValidation):
         # the cost of dry friction has narrow basins, so a start from the distorted values alone
         # can miss the optimum.  The beam's other parents add diversity of their own, so they get
         # the nominal values unscaled: their grids cost a sixth of the first parent's.
-        # A free pendulum's hidden release states get each parent's starts chosen per release
-        # (roboball.diagnose.hidden), for all parents in one batch, once per parent.
+        # A free pendulum's hidden states: starts chosen per release, all parents in one batch.
         trials = []
         first = pairs[0][0]
-        nominals = {}
-        for parent, _ in pairs:
-            if id(parent) not in nominals:
-                nominal = dict(eng.initial_values())
-                nominal.update({k: v for k, v in parent.values.items() if "." in k})
-                nominals[id(parent)] = nominal
-        chosen = dict(zip(nominals, hidden.variants(eng, list(nominals.values()))))
+        nominals = {id(p): {**eng.initial_values(), **{k: v for k, v in p.values.items() if "." in k}} for p, _ in pairs}
+        chosen = dict(zip(nominals, chosen_starts(eng, list(nominals.values()))))
         for parent, c in pairs:
             nominal = nominals[id(parent)]
             effects = tuple(parent.effects) + (c,)
