@@ -12,9 +12,9 @@ stretch's leaders alone was 2 to 100 times the grid's best on the real shell log
 starts in four only at the window's end.)  The starts left at the end get their whole cost the
 plain way (Engine.predict, Engine._costs), and the best of all starts costed to the end is the
 grid's best, the very start (to the bit, ties to the first) that simulating every start to the
-end gives.  Most starts of a grid are hopeless within a second (a
-magnitude a decade off, a free pendulum started in the wrong phase of its swing): on the real
-shell log with the pendulum free, the grids were 80% of `roboball diagnose`'s time.
+end gives.  Most starts of a grid are hopeless within a second (a magnitude a decade off, a free
+pendulum started in the wrong phase of its swing): on the real shell log with the pendulum free,
+the grids were 80% of `roboball diagnose`'s time.
 
 Used where the model runs a batch a stretch at a time (a compiled model's `stepper`), the
 windows are raw samples and no sensor lag is fitted (a lag filters the whole run; a ramp's trend
@@ -27,8 +27,8 @@ import math
 import numpy as np
 
 STRETCH_S = 0.5        # s simulated between two prunings
-LEADERS = 2            # starts per grid simulated to the end for the bound after each of:
-LEADER_STRETCHES = (1, 2, 4, 8)     # the stretches (counted from 1) after which leaders are run
+LEADERS = 2            # starts per grid simulated to the end for the bound, after each stretch of:
+LEADER_STRETCHES = (1, 2, 4, 8)     # (counted from 1; none after the eighth: 4 s into the window)
 MARGIN = 1e-9          # relative: a partial sum rounds otherwise than the whole one
 
 
