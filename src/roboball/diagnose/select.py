@@ -263,11 +263,10 @@ class Selector(KeepRule, CrossValidation):
         # the cost of dry friction has narrow basins, so a start from the distorted values alone
         # can miss the optimum.  The beam's other parents add diversity of their own, so they get
         # the nominal values unscaled: their grids cost a sixth of the first parent's.
-        # A free pendulum's hidden states: starts chosen per release, all parents in one batch.
         trials = []
         first = pairs[0][0]
         nominals = {id(p): {**eng.initial_values(), **{k: v for k, v in p.values.items() if "." in k}} for p, _ in pairs}
-        chosen = dict(zip(nominals, chosen_starts(eng, list(nominals.values()))))
+        chosen = dict(zip(nominals, chosen_starts(eng, list(nominals.values()))))    # per release, one batch
         for parent, c in pairs:
             nominal = nominals[id(parent)]
             effects = tuple(parent.effects) + (c,)
