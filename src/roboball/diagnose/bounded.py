@@ -2,16 +2,19 @@
 
 A grid start's cost is a sum of squares over the window's samples, so what a start has
 accumulated over the first seconds is a lower bound of its whole cost.  The grid's starts are
-simulated together a stretch at a time (`STRETCH_S`); after each stretch the `LEADERS` starts of
-lowest cost so far (not yet simulated to the end) are simulated to the end, and every start whose
-cost so far already exceeds the best whole cost known is dropped from the later stretches: it
-cannot be the best.  (A bound from the first stretch's leaders alone was 2 to 100 times the
-grid's best on the real shell log and dropped three starts in four only at the window's end.)  The
-starts left at the end get their whole cost the plain way (Engine.predict, Engine._costs), and
-the best of them is the grid's best, the very start (to the bit, ties to the first) that
-simulating every start to the end gives.  Most starts of a grid are hopeless within a second (a
-magnitude a decade off, a free pendulum started in the wrong phase of its swing): on the real
-shell log with the pendulum free, the grids were 80% of `roboball diagnose`'s time.
+simulated together a stretch at a time (`STRETCH_S`); after the stretches `LEADER_STRETCHES` (1,
+2, 4 and 8: the bound tightens most early, and a leader's run to the end is a whole window's
+simulation) the `LEADERS` starts of lowest cost so far (not yet simulated to the end) are
+simulated to the end, and after every stretch each start whose cost so far already exceeds the
+best whole cost known is dropped from the later stretches: it cannot be the best.  A start
+simulated to the end is not stepped again: its whole cost is known.  (A bound from the first
+stretch's leaders alone was 2 to 100 times the grid's best on the real shell log and dropped three
+starts in four only at the window's end.)  The starts left at the end get their whole cost the
+plain way (Engine.predict, Engine._costs), and the best of all starts costed to the end is the
+grid's best, the very start (to the bit, ties to the first) that simulating every start to the
+end gives.  Most starts of a grid are hopeless within a second (a magnitude a decade off, a free
+pendulum started in the wrong phase of its swing): on the real shell log with the pendulum free,
+the grids were 80% of `roboball diagnose`'s time.
 
 Used where the model runs a batch a stretch at a time (a compiled model's `stepper`), the
 windows are raw samples and no sensor lag is fitted (a lag filters the whole run; a ramp's trend
@@ -24,7 +27,8 @@ import math
 import numpy as np
 
 STRETCH_S = 0.5        # s simulated between two prunings
-LEADERS = 2            # starts per grid simulated to the end for the bound after each stretch
+LEADERS = 2            # starts per grid simulated to the end for the bound, after each stretch of:
+LEADER_STRETCHES = (1, 2, 4, 8)     # (counted from 1; none after the eighth: 4 s into the window)
 MARGIN = 1e-9          # relative: a partial sum rounds otherwise than the whole one
 
 
@@ -53,10 +57,14 @@ def best_costs(engine, items: list, spans: list) -> list:
     masks = _item_masks(items, spans)
     runs = [_Run(engine, items, rows, owner, masks) for rows in _by_window(items)]
     bound = np.full(len(spans), math.inf)
+    n_stretch = 0
     while any(r.left for r in runs):
+        running = alive & np.isnan(exact)           # a start costed to the end is not run again
         for r in runs:
-            r.stretch(partial, alive)
-        _leaders(engine, items, spans, first, partial, alive, exact, bound)
+            r.stretch(partial, running)
+        n_stretch += 1
+        if n_stretch in LEADER_STRETCHES:
+            _leaders(engine, items, spans, first, partial, alive, exact, bound)
         for k, (start, cands, used, _) in enumerate(spans):
             sl = slice(first[k], first[k] + len(cands))
             alive[sl] &= ~(partial[sl] > bound[k] * (1.0 + MARGIN))
@@ -128,9 +136,10 @@ class _Run:
     def left(self) -> bool:
         return self.done < self.n_total and self.rows.size > 0
 
-    def stretch(self, partial, alive) -> None:
-        """Drop the rows of dropped candidates, simulate one more stretch, add its samples' costs."""
-        keep = np.nonzero(alive[self.owner])[0]
+    def stretch(self, partial, running) -> None:
+        """Drop the rows of candidates no longer `running` (dropped, or costed to the end), simulate
+        one more stretch, add its samples' costs."""
+        keep = np.nonzero(running[self.owner])[0]
         if keep.size < self.rows.size:
             self.rows, self.owner = self.rows[keep], self.owner[keep]
             self.cell, self.s, self.mask = self.cell[keep], self.s[keep], self.mask[keep]

@@ -26,6 +26,7 @@ import numpy as np
 from roboball.physics import effects as fx
 from roboball.diagnose.bounded import applies as bounded_grid, best_costs
 from roboball.diagnose.data import Prepared
+from roboball.diagnose.hidden import chosen_starts
 from roboball.diagnose.sensor import LAG_BOUNDS, LAG_KEY, LAG_TYPICAL, lag_grid, lag_of
 from roboball.reduced.base import DT, ReducedModel
 from roboball.reduced.integrate import hermite
@@ -99,6 +100,7 @@ class Engine:
         # release states of coordinates the recording does not observe (a free pendulum's steer
         # joint under a shell log): fitted per release like q0, passed to the model by name
         self.hidden = tuple(model.hidden_release)
+        self.hidden_cache: dict = {}     # values -> the starts chosen per release (diagnose.hidden)
         for w in prep.windows:
             self.info[f"q0@{w.index}"] = (0.01, w.q0 - Q0_BOUND, w.q0 + Q0_BOUND)
             if "t_shift" in model.release_params:
@@ -403,19 +405,11 @@ class Engine:
 
     # ---- grid starts ---------------------------------------------------------------------
     def hidden_variants(self, values: dict) -> list:
-        """Copies of `values` with the unobserved release states (model.hidden_release) at each
-        of the model's starting points (`hidden_starts`; the same point for every release): a
-        free pendulum's state at the release has to be searched for, fits from a wrong swing
-        phase end in local minima.  Empty when the model has none."""
-        if not self.hidden:
-            return []
-        out = []
-        for point in self.model.hidden_starts():
-            v = dict(values)
-            for name, x in point.items():
-                v.update({f"{name}@{w}": float(x) for w in self.windows})
-            out.append(v)
-        return out
+        """Copies of `values` with the unobserved release states (model.hidden_release) at starts
+        chosen per release from the model's `hidden_starts` (roboball.diagnose.hidden): a free
+        pendulum's state at the release has to be searched for, fits from a wrong swing phase end
+        in local minima.  Empty when the model has none."""
+        return chosen_starts(self, [values])[0]
 
     def best_of(self, prob: Problem, candidates: list) -> dict:
         """The candidate values of lowest cost over the problem's samples (one batched run)."""

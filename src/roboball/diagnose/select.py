@@ -47,6 +47,7 @@ from roboball.diagnose.crossval import CrossValidation
 from roboball.diagnose.data import Prepared
 from roboball.diagnose.equivalents import bic_on, equivalents
 from roboball.diagnose.fit import Engine, Problem, effect_keys
+from roboball.diagnose.hidden import chosen_starts
 from roboball.diagnose.keep import KeepRule, immaterial
 from roboball.diagnose.scored import Scored, Settings
 from roboball.diagnose.sensor_fit import fit_sensor_lag, run_with_sensor_lag, without_stale
@@ -266,13 +267,14 @@ class Selector(KeepRule, CrossValidation):
         # the nominal values unscaled: their grids cost a sixth of the first parent's.
         trials = []
         first = pairs[0][0]
+        nominals = {id(p): {**eng.initial_values(), **{k: v for k, v in p.values.items() if "." in k}} for p, _ in pairs}
+        chosen = dict(zip(nominals, chosen_starts(eng, list(nominals.values()))))    # per release, one batch
         for parent, c in pairs:
-            nominal = dict(eng.initial_values())
-            nominal.update({k: v for k, v in parent.values.items() if "." in k})
+            nominal = nominals[id(parent)]
             effects = tuple(parent.effects) + (c,)
             trials.append((self.full_problem(effects, parent.values), c, parent.values))
             variants = _rescaled(nominal, parent.effects) if parent is first else [nominal]
-            variants += eng.hidden_variants(nominal)
+            variants += chosen[id(parent)]
             trials.append((self.full_problem(effects, nominal), c, variants))
         starts = eng.best_starts(trials)
         for (p, _, _), v in zip(trials, starts):
