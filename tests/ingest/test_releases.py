@@ -528,3 +528,31 @@ def test_record_cut_mid_swing_is_no_turning_point(free_s):
     assert rel[0].t_release_s == pytest.approx(t_r, abs=0.05)
     assert rel[0].y_rest == pytest.approx(rest, abs=0.003)
     assert rel[0].half_period_s == pytest.approx(math.pi / omega, rel=0.05)
+
+
+@pytest.mark.parametrize("case", [1, 3])
+def test_a_hand_s_move_from_rest_into_its_hold_is_no_release(tmp_path, case):
+    """A short first recording of the test bed's shell with the pendulum free (1 s at rest, the
+    hand's move of 0.2-0.35 rad and its hold, then 1 s after the let-go, 3 mrad of noise): the
+    hand's move from rest, whose end the hold keeps still, passed for a free half swing, the hold
+    for the rest, and the release for 1.0 s (the closed loop of `roboball design`,
+    docs/diagnosis.md).  A free half swing turns at once; a turning point held that long is the
+    hand's.  The hand takes at least 0.6 s to move and holds at least 0.8 s, so no release
+    found may start before 2.4 s."""
+    import sys
+
+    from conftest import REPO
+    sys.path.insert(0, str(REPO / "benchmarks"))
+    import design_closed_loop as loop
+
+    saved = dict(loop.NOISE)
+    loop.NOISE["steer_setting"] = 0.003
+    try:
+        c = loop.draw_case("steer_setting", case, 47, 0)
+        path = loop.record(c, [c["release"]], 1.0, tmp_path, "first", 1)
+    finally:
+        loop.NOISE.clear()
+        loop.NOISE.update(saved)
+    from roboball.diagnose.data import read
+    releases = recording_releases(read(path))
+    assert all(r.t_release_s >= 2.4 for r in releases), [round(r.t_release_s, 2) for r in releases]

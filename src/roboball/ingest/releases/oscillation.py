@@ -139,6 +139,8 @@ def _release_of(sig: PreparedSignal, ext: np.ndarray, sw: _Swings, floor_index: 
     """The release at the start of `sw`, or None if its start is no hand's release: no rest to
     swing about, no swing that fits a free oscillation about it, or no hold before it.
     `floor_index`: the grid index before which the hold may not start (the previous response)."""
+    if _held_first_turn(sig, ext, sw, min_hold_s, hold_speed):
+        return None
     found = _rest_candidates(sig, ext, sw)
     if found is None:
         return None
@@ -164,6 +166,23 @@ def _release_of(sig: PreparedSignal, ext: np.ndarray, sw: _Swings, floor_index: 
         noise=sig.sigma,
         kind=kind,
     )
+
+
+def _held_first_turn(sig: PreparedSignal, ext: np.ndarray, sw: _Swings, min_hold_s: float,
+                     hold_speed: float) -> bool:
+    """Whether the first turning point after the candidate hold is itself held, with swings after
+    it: then the way to it was a hand's move (from rest to the hold it then lets go from), not a
+    free half swing, which turns at once.  In a short record that holds less than one swing after
+    the let-go, the hand's move from rest otherwise passed for a release and the hold it ends in
+    for the rest (a first recording of a 0.05-0.3 rad shell release logged 1-2 s).  A body that
+    overshoots once and is stopped there by dry friction has no swings after that turning point
+    (`_Swings.single`) and is left alone."""
+    if sw.single or len(sw.vals) < 3:
+        return False
+    amplitude = 0.5 * abs(sw.vals[2] - sw.vals[1])
+    omega = math.pi / max(float(sw.half_periods[1]), 2 * sig.dt)
+    return is_hold(sig, ext, sw.j + 1, omega=omega, amplitude=amplitude, min_hold_s=min_hold_s,
+                   hold_speed=hold_speed)
 
 
 def _rest_candidates(sig: PreparedSignal, ext: np.ndarray, sw: _Swings) -> tuple[float, list[float]] | None:
