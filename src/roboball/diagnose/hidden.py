@@ -26,8 +26,9 @@ K_SEVERAL = 7          # variants kept when the recording has several releases
 def chosen_starts(engine, values_list: list) -> list:
     """For each of `values_list` (dicts of values), the copies of it with the model's hidden
     release states at chosen starts (module docstring; with several releases the best first, with
-    one in the model's order): a list per entry, empty when the model has no hidden states.  One batched simulation for all entries; the choice is
-    cached on the engine by the values, so a parent's is made once."""
+    one in the model's order): a list per entry, empty when the model has no hidden states.  One
+    batched simulation for all entries; the choice is cached on the engine by the values, so a
+    parent's is made once."""
     if not engine.hidden:
         return [[] for _ in values_list]
     starts = engine.model.hidden_starts()

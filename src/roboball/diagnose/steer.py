@@ -50,22 +50,18 @@ def either_steer_setting(recs, prep, settings, log, steer_friction: dict | None)
     d = runs[chosen]
     said = "; ".join(f"{k}: {' + '.join(runs[k].chosen) or 'nothing missing'}, held-out RMS {cv[k]:.4g}"
                      for k in ("locked", "free"))
-    why = (f"held-out RMS {cv[chosen]:.4g} against {cv[_other(chosen)]:.4g}, more than {s.cv_gain:.0%} below, "
-           f"p = {test['p_two_sided']:.2g} over {test['n_eff']:.3g} effectively independent samples")
+    p_said = f"p = {test['p_two_sided']:.2g} over {test['n_eff']:.3g} effectively independent samples"
     if decided:
-        verdict = f"reported: {chosen}, decided ({why})"
-    elif better is not None and significant:
-        verdict = (f"reported: locked, the contract's default: UNDECIDED, {better}'s held-out RMS is lower "
-                   f"({cv[better]:.4g} against {cv[_other(better)]:.4g}, p = {test['p_two_sided']:.2g}) but its "
-                   f"diagnosis leaves the recording unexplained")
-    elif better is None:
-        verdict = (f"reported: locked, the contract's default: UNDECIDED, the two held-out RMS are within "
-                   f"{s.cv_gain:.0%} of each other")
+        verdict = (f"reported: {chosen}, decided (held-out RMS {cv[chosen]:.4g} against {cv[_other(chosen)]:.4g}, "
+                   f"more than {s.cv_gain:.0%} below, {p_said})")
     else:
-        verdict = (f"reported: locked, the contract's default: UNDECIDED, {better}'s held-out RMS is lower "
-                   f"({cv[better]:.4g} against {cv[_other(better)]:.4g}) but not significantly "
-                   f"(p = {test['p_two_sided']:.2g} over {test['n_eff']:.3g} effectively independent samples; "
-                   f"{s.decide_p:g} needed)")
+        if better is None:
+            why = f"the two held-out RMS are within {s.cv_gain:.0%} of each other"
+        else:
+            lower = f"{better}'s held-out RMS is lower ({cv[better]:.4g} against {cv[_other(better)]:.4g}"
+            why = (f"{lower}, p = {test['p_two_sided']:.2g}) but its diagnosis leaves the recording unexplained"
+                   if significant else f"{lower}) but not significantly ({p_said}; {s.decide_p:g} needed)")
+        verdict = f"reported: locked, the contract's default: UNDECIDED, {why}"
     d.prep.notes.append(f"the steer joint's setting was not recorded (steer_joint unknown): diagnosed with it "
                         f"locked and with the pendulum free ({said}); {verdict}")
     # each setting's whole fitted model and intervals, so `roboball design` can simulate both
