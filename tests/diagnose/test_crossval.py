@@ -95,8 +95,9 @@ def _heldout(errors_a, errors_b, t=None):
     t = np.arange(n) * 0.01 if t is None else t
     y = np.zeros(n)
     w = SimpleNamespace(index=0, t=t, y=y)
-    a = Scored(effects=(), full=None, cv_pred={0: np.asarray(errors_a, float)})
-    b = Scored(effects=(), full=None, cv_pred={0: np.asarray(errors_b, float)})
+    ea, eb = np.asarray(errors_a, float), np.asarray(errors_b, float)
+    a = Scored(effects=(), full=None, cv_pred={0: ea}, cv_err={0: ea})
+    b = Scored(effects=(), full=None, cv_pred={0: eb}, cv_err={0: eb})
     return paired_heldout(a, [w], b, [w])
 
 
@@ -129,3 +130,43 @@ def test_only_the_samples_both_models_predicted_are_compared():
     res = _heldout(e, 3.0 * np.nan_to_num(e, nan=1.0))
     assert res["n"] == 500 and res["ms_ratio"] == pytest.approx(9.0)
     assert math.isnan(_heldout([np.nan] * 5, [1.0] * 5)["p_two_sided"])
+
+
+# ---- the level at which a joint comes to rest (roboball.diagnose.crossval.heldout_error) -----
+def _stuck_window(rest_level=-0.065, noise=5e-4, rest_s=1.3, seed=4):
+    """A stand swing that decays and sticks at `rest_level` for its last `rest_s` seconds."""
+    from types import SimpleNamespace
+
+    t = np.arange(0.0, 7.3, 0.01)
+    t_stop = t[-1] - rest_s
+    swing = 0.4 * np.exp(-0.35 * t) * np.cos(2 * np.pi * t / 1.1)
+    y = np.where(t < t_stop, swing + rest_level * t / t_stop, rest_level)
+    y = y + np.random.default_rng(seed).normal(0.0, noise, t.size)
+    return SimpleNamespace(index=0, t=t, y=y, t0=0.0, n=t.size, smooth_s=0.0), t_stop
+
+
+def test_a_recording_that_ends_at_rest_is_scored_about_its_level_and_a_swinging_one_is_not():
+    from roboball.diagnose.crossval import heldout_error, rest_start
+
+    w, t_stop = _stuck_window()
+    i = rest_start(w, 5e-4)
+    assert i is not None and abs(w.t[i] - t_stop) < 0.05
+    # a prediction that sticks 30 mrad off the recorded level pays only before the stop
+    pred = w.y.copy()
+    pred[i:] += 0.03
+    e = heldout_error(pred, w, 5e-4)
+    assert np.max(np.abs(e)) < 1e-12
+    # one that keeps swinging there pays for its swing
+    pred = w.y.copy()
+    pred[i:] += 0.03 + 0.01 * np.sin(2 * np.pi * w.t[i:] / 1.1)
+    e = heldout_error(pred, w, 5e-4)
+    assert np.sqrt(np.mean(e[i:] ** 2)) == pytest.approx(0.01 / math.sqrt(2), rel=0.1)
+    # a swing that is still moving at its end (or rests under half a second) is scored as it is
+    moving, _ = _stuck_window(rest_s=0.3)
+    assert rest_start(moving, 5e-4) is None
+    pred = moving.y + 0.03
+    assert np.allclose(heldout_error(pred, moving, 5e-4), 0.03)
+    # a ramp's averaged drive rate has no stick band: never
+    averaged, _ = _stuck_window()
+    averaged.smooth_s = 0.1
+    assert rest_start(averaged, 5e-4) is None

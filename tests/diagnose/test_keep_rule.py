@@ -177,3 +177,33 @@ def test_a_grid_start_that_diverged_to_nan_is_never_the_best_start():
     (best,) = eng.best_starts([(prob, "cubic_stiffness", {})])
     assert abs(best["cubic_stiffness.k3"]) == min(abs(x) for x in fx.LIBRARY["cubic_stiffness"].params[0].grid_values())
     assert math.isfinite(best["_cost"])
+
+
+def test_a_magnitude_whose_wald_interval_includes_zero_is_itself_where_the_profile_excludes_zero():
+    """A breakaway acts only where the joint turns or sticks: its Wald interval (the Jacobian's
+    quadratic approximation) can include zero while the fit without it is far worse.  Zero is
+    then tested at that fit, the profile likelihood's value there: the likelihood ratio in
+    inflated noise variances against chi-square (2 parameters: 5.99)."""
+    sel = selector()
+    sel.fits = {}
+    ci = {"stiction.tau_s": (-1.1, 2.3), "stiction.v_s": (0.002, 0.002)}
+    sc = scored(effects=("coulomb_friction", "stiction"), rss=1.0, n=1000, k=5, cv_rmse=0.05)
+    sc.full.values = {"coulomb_friction.tau_c": 0.24, "stiction.tau_s": 0.6, "stiction.v_s": 0.002}
+    sc.rho1 = 0.0
+    far = scored(effects=("coulomb_friction",), rss=1.01, n=1000, k=3, cv_rmse=0.1)       # ratio 9.95
+    near = scored(effects=("coulomb_friction",), rss=1.004, n=1000, k=3, cv_rmse=0.1)     # ratio 3.98
+    assert "itself" not in conditions(sel, sc, far, ci)
+    assert "itself" in conditions(sel, sc, near, ci)
+    # the same gain in a residual that lasts a swing (rho1 0.9: 19 samples per independent one)
+    sc.rho1 = 0.9
+    assert "itself" in conditions(sel, sc, far, ci)
+    # judged against another reference, the fit without the effect is looked up where it is kept
+    other = scored(effects=("coulomb_friction", "quadratic_drag"), rss=1.02, n=1000, k=4, cv_rmse=0.1)
+    sc.rho1 = 0.0
+    assert "itself" in conditions(sel, sc, other, ci)
+    sel.fits = {far.key: far}
+    assert "itself" not in conditions(sel, sc, other, ci)
+    # a magnitude pinned at its physical bound keeps the Wald test (a stand-in pushed as far as
+    # it may go: the chi-square holds for interior estimates only)
+    sc.full.values["stiction.tau_s"] = fx.LIBRARY["stiction"].params[0].hi
+    assert "itself" in conditions(sel, sc, far, ci)

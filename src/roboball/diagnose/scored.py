@@ -57,6 +57,7 @@ class Scored:
     full: Problem
     cv_rmse: float = math.nan
     cv_pred: dict = field(default_factory=dict)     # window -> held-out prediction (NaN where fitted)
+    cv_err: dict = field(default_factory=dict)      # window -> held-out error scored (crossval.heldout_error)
     rho1: float = math.nan
     bic: float = math.nan
     delta_bic: float = math.nan
@@ -79,5 +80,5 @@ class Scored:
         """The same fitted model with `last` named as its most recent effect (the keep rule judges
         a model's most recent effect)."""
         return Scored(effects=tuple(e for e in self.effects if e != last) + (last,), full=self.full,
-                      cv_rmse=self.cv_rmse, cv_pred=self.cv_pred, rho1=self.rho1, bic=self.bic,
+                      cv_rmse=self.cv_rmse, cv_pred=self.cv_pred, cv_err=self.cv_err, rho1=self.rho1, bic=self.bic,
                       delta_bic=self.delta_bic, parent=self.parent)
