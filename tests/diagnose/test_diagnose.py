@@ -261,50 +261,30 @@ def test_a_stiffness_is_not_reported_as_backlash_without_free_play(tmp_path, cas
     assert k == pytest.approx(case["effects"]["linear_stiffness"]["k"], rel=0.02)
 
 
-_STICTION_CASE = """
-import json, sys
-sys.path.insert(0, sys.argv[1])
-import blind_cases, diagnose_blind
-from pathlib import Path
-from roboball.diagnose import diagnose
-from roboball.diagnose.scored import Settings
-case = next(c for c in blind_cases.draw_cases(8) if c["id"] == sys.argv[2])
-csv = diagnose_blind.make_recording(case, Path(sys.argv[3]))
-d, js = diagnose(str(csv), settings=Settings(max_effects=2), drake=False)
-print(json.dumps({"case": case, "missing": js["missing_physics"]}))
-"""
-
-
-@pytest.mark.parametrize("numerics", ["native", "pinned"])
 @pytest.mark.parametrize("case_id", ["steer_stand-13", "steer_stand-14"])
-def test_stiction_that_stops_the_swings_early_is_found(tmp_path, case_id, numerics):
+def test_stiction_that_stops_the_swings_early_is_found(tmp_path, case_id):
     """Two Coulomb + stiction cases of the blind benchmark's seed 8, where the swings come to
     rest within the recording.  With a breakaway hump 20 mrad/s wide the diagnosis reported an
     extra linear stiffness (13) or quadratic drag in place of the stiction (14): the hump acted
     at every reversal of the swings and delayed it, which the test bed's LuGre bristles do not
     (a reversal lasts too short a slide for them to load up).  Its width is now 2 V_EPS, where
-    the law holds the joint.  Case 14 then hung on the machine's vector code: its Coulomb +
-    stiction fit stopped short of the noise-level optimum, at 0.0030 or 0.0041 rad RMS by the
-    arithmetic's last bits, and lost to a quadratic drag on some CPUs; the judged fits with dry
-    friction are now restarted about themselves (roboball.diagnose.shake), so the case is run
-    both with this machine's own numerics and with the pipeline's pinned ones (a subprocess:
-    NumPy picks its code paths at import).  The breakaway excess is found within a factor 2.5 of
-    the truth (a memoryless law holds the joint only in its creep band, where the bristles hold
-    it in full)."""
-    import os
-    import subprocess
+    the law holds the joint.  With the old width case 14 fails here; case 13's extra stiffness
+    came third, beyond these two-effect settings (the benchmark shows it).  The breakaway
+    excess is found within a factor 2.5 of the truth (a memoryless law holds the joint only in
+    its creep band, where the bristles hold it in full)."""
     import sys
 
-    from roboball.pipeline.numerics import PINNED
+    sys.path.insert(0, str(REPO / "benchmarks"))
+    import blind_cases
+    import diagnose_blind
 
-    env = {**os.environ, **(PINNED if numerics == "pinned" else {}), "PYTHONHASHSEED": "0"}
-    proc = subprocess.run([sys.executable, "-c", _STICTION_CASE, str(REPO / "benchmarks"), case_id, str(tmp_path)],
-                          capture_output=True, text=True, env=env, cwd=REPO)
-    assert proc.returncode == 0, proc.stderr[-2000:]
-    out = json.loads(proc.stdout.strip().splitlines()[-1])
-    case, missing = out["case"], {m["effect"]: m["parameters"] for m in out["missing"]}
-    assert sorted(missing) == ["coulomb_friction", "stiction"]
-    assert missing["coulomb_friction"]["tau_c"] == pytest.approx(case["effects"]["coulomb_friction"]["tau_c"], rel=0.25)
-    # tau_s is the breakaway excess the law holds; as the former hump amplitude it read 1.6 and
-    # 3.3 times the truth
-    assert 0.4 < missing["stiction"]["tau_s"] / case["effects"]["stiction"]["tau_s"] < 2.5
+    case = next(c for c in blind_cases.draw_cases(8) if c["id"] == case_id)
+    csv = diagnose_blind.make_recording(case, tmp_path)
+    d, js = diagnose(str(csv), settings=FAST, drake=False)
+    assert sorted(m["effect"] for m in js["missing_physics"]) == ["coulomb_friction", "stiction"]
+    tau_c = next(m for m in js["missing_physics"] if m["effect"] == "coulomb_friction")["parameters"]["tau_c"]
+    assert tau_c == pytest.approx(case["effects"]["coulomb_friction"]["tau_c"], rel=0.25)
+    tau_s = next(m for m in js["missing_physics"] if m["effect"] == "stiction")["parameters"]["tau_s"]
+    # tau_s is the breakaway excess the law holds (0.47 and 0.88 N m against the truth's 0.50
+    # and 0.45); as the former hump amplitude it read 0.78 and 1.48, 1.6 and 3.3 times the truth
+    assert 0.4 < tau_s / case["effects"]["stiction"]["tau_s"] < 2.5

@@ -11,12 +11,13 @@ simulation error.
    release states at the hold levels, the parent's effects rescaled by 0.1-1.6), because a
    model that misses strong physics distorts its own fit and dry friction's cost has narrow
    basins.  A set reached from two parents keeps the better fit.
-3. The grown models that beat the best model kept so far on BIC are judged, the `top_k` best by BIC, and the next
-   `top_k` in turn while none judged passes: each is refitted to convergence (restarted about its fit if it holds
-   dry friction: diagnose.shake), cross-validated (leave one release out, or three contiguous time blocks of a
-   single release: diagnose.crossval) and kept only if EVERY effect in it passes the keep rule (diagnose.keep:
-   BIC, held-out error, materiality, 95% intervals) against the same model without that effect.  The next
-   round's beam: the `beam_width` grown models of lowest BIC that lower their parent's BIC by over `bic_min`.
+3. The grown models that beat the best model kept so far on BIC are judged, the `top_k` best
+   by BIC, and the next `top_k` in turn while none judged passes: each is refitted to convergence and cross-validated (leave one release out, or
+   three contiguous time blocks of a single release: roboball.diagnose.crossval) and kept only
+   if EVERY effect in it passes the keep rule (roboball.diagnose.keep: BIC, held-out error,
+   materiality, 95% intervals) against the same model without that effect.  The next round's
+   beam is the `beam_width` grown models of lowest BIC that lower their parent's BIC by more
+   than `bic_min` (and the best kept model, if grown this round).
 4. Rounds stop after `max_effects`, or when no model of the beam is left to grow (none lowers
    its parent's BIC, or their residuals are white: lag-1 autocorrelation below `white_rho` and
    RMS within `white_factor` noise levels).  The diagnosis is the kept model of lowest BIC.
@@ -50,7 +51,6 @@ from roboball.diagnose.hidden import chosen_starts
 from roboball.diagnose.keep import KeepRule, immaterial
 from roboball.diagnose.scored import Scored, Settings
 from roboball.diagnose.sensor_fit import fit_sensor_lag, run_with_sensor_lag, without_stale
-from roboball.diagnose.shake import shake
 from roboball.reduced.base import ReducedModel
 from roboball.reduced.models import model_for
 
@@ -296,9 +296,8 @@ class Selector(KeepRule, CrossValidation):
         return out
 
     def _judge_batch(self, todo: list, base: Scored) -> list:
-        """`todo` judged (dry friction's fits restarted first: diagnose.shake): the newest effect first, against
-        the parent; only models whose newest effect passes have the models without each of their other effects cross-validated."""
-        shake(self, todo)
+        """`todo` judged: the newest effect first, against the parent; only models whose newest effect
+        passes have the models without each of their other effects cross-validated."""
         self.restart_references(todo, newest_only=True)
         self.validate(todo + [self.fits[frozenset(sc.parent)] for sc in todo], references=False)
         out = [(sc, [self.check(sc, sc.effects[-1], self.fits[frozenset(sc.parent)], base)]) for sc in todo]
@@ -469,8 +468,9 @@ def _decision(sel: Selector, sc: Scored, parent: Scored, checks: list) -> dict:
 def mark_kept(steps: list, final: Scored) -> None:
     """Mark, in every round, the grown model that is the final one or part of it (the path)."""
     chosen = set(final.effects)
-    for info in (i for step in steps for i in step):
-        info["kept"] = bool(info.get("qualifies")) and set(info["set"]) <= chosen
+    for step in steps:
+        for info in step:
+            info["kept"] = bool(info.get("qualifies")) and set(info["set"]) <= chosen
 
 
 def _rescaled(values: dict, effects, factors=(0.1, 0.3, 0.6, 1.0, 1.6), cap: int = 9) -> list:
