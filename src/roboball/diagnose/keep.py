@@ -141,9 +141,10 @@ class KeepRule:
         interval: the fit `without` the effect is the profile at zero (module docstring)."""
         from scipy.special import chdtri      # chi-square's inverse survival function
 
-        if without is None or not (without.full.n == sc.full.n):
+        if without is None or without.full.n != sc.full.n:
             return False
-        mag = fx.LIBRARY[effect].params[0]
+        eff = fx.LIBRARY[effect]
+        mag = eff.params[0]
         x = sc.values[f"{effect}.{mag.name}"]
         margin = 1e-6 * (mag.hi - mag.lo)
         if not mag.lo + margin < x < mag.hi - margin:
@@ -152,7 +153,7 @@ class KeepRule:
         s2 = sc.full.rss / max(n - k, 1)
         infl = n / n_eff(n, sc.rho1)
         ratio = (without.full.rss - sc.full.rss) / (s2 * infl)
-        return bool(ratio > chdtri(len(fx.LIBRARY[effect].params), 0.05))
+        return bool(ratio > chdtri(len(eff.params), 0.05))
 
     def not_itself(self, sc: Scored, effect: str, ci: dict | None = None, without: Scored | None = None) -> str:
         """Why the fitted `effect` is not shown to be itself ("" when it is): the 95% interval
@@ -165,9 +166,7 @@ class KeepRule:
         simpler = dict(eff.reduces_to)
         for name in eff.defining_params():
             lo, hi = ci[f"{effect}.{name}"]
-            if lo <= 0.0 <= hi and name == eff.params[0].name and self.profile_excludes_zero(sc, effect, without):
-                continue
-            if lo <= 0.0 <= hi:
+            if lo <= 0.0 <= hi and not (name == eff.params[0].name and self.profile_excludes_zero(sc, effect, without)):
                 if name in simpler:
                     return f"95% interval of {name} includes zero: {effect} with {name} = 0 is {simpler[name]}"
                 return "95% interval of its magnitude includes zero"
