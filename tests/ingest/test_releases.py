@@ -556,3 +556,37 @@ def test_a_hand_s_move_from_rest_into_its_hold_is_no_release(tmp_path, case):
     from roboball.diagnose.data import read
     releases = recording_releases(read(path))
     assert all(r.t_release_s >= 2.4 for r in releases), [round(r.t_release_s, 2) for r in releases]
+
+
+@pytest.mark.parametrize("arm", ["first", "random"])
+def test_a_half_period_measured_from_one_half_swing_must_agree_with_the_first(tmp_path, arm):
+    """Two short recordings of `roboball design`'s closed loop (steer setting, case 0: the test
+    bed's shell, clamped, at rest 1 s, the hand's move and its hold, then 2 s after the let-go):
+    `first`, a 0.07 rad move into a hold whose 1.5 mrad tremor wiggles once, and `random`, a
+    0.35 rad release whose one swing the record's end cuts.  Each gave a 'release' whose half
+    period came from that one wiggle or cut swing (0.30 and 0.63 s) while its first half swing
+    lasted twice as long, with its rest 0.07 and 0.13 rad off; the diagnosis then fitted the hand's
+    move, or the swing about the wrong rest.  No release found may put the rest elsewhere than
+    where the body sat before the hand took it."""
+    import sys
+
+    from conftest import REPO
+    sys.path.insert(0, str(REPO / "benchmarks"))
+    import design_closed_loop as loop
+
+    saved = loop.FIRST_RELEASE["steer_setting"]
+    loop.FIRST_RELEASE["steer_setting"] = (0.05, 0.1)
+    try:
+        c = loop.draw_case("steer_setting", 0, 47, 0)
+    finally:
+        loop.FIRST_RELEASE["steer_setting"] = saved
+    if arm == "first":
+        path = loop.record(c, [c["release"]], 2.0, tmp_path, "first", 1)
+    else:
+        path = loop.record(c, [-0.35], 2.014, tmp_path, "random", 3)
+    from roboball.diagnose.data import read
+    rec = read(path)
+    rest = float(np.median(rec.signal("pipe_angle")[rec.time < 0.9]))
+    releases = recording_releases(rec)
+    assert all(abs(r.y_rest - rest) < 0.01 for r in releases), [(round(r.t_release_s, 2), round(r.y_rest, 3))
+                                                                 for r in releases]
