@@ -69,6 +69,7 @@ RAMP_SMOOTH_S = 0.1
 STILL_KEEP_S = 3.0
 MIN_TURNS_AFTER = 3     # turning points that must follow the first one for the window to start there
 TREMOR_GAP_S = 0.2      # s: the longest tremor excursion a hand hold is joined across (_hold_releases)
+TREMOR_SHARE = 0.1      # of the record's range: how far a hand's tremor may take the body from its hold
 
 
 @dataclass
@@ -283,7 +284,7 @@ def _hold_releases(t, y, kind: str) -> list:
             k = j
         else:
             k += 1
-    runs = _through_tremor(runs, ys, int(round(TREMOR_GAP_S / sig.dt)), max(5.0 * sig.sigma, 0.05 * span))
+    runs = _through_tremor(runs, ys, int(round(TREMOR_GAP_S / sig.dt)), max(5.0 * sig.sigma, TREMOR_SHARE * span))
     holds = []
     for a, b in runs:
         hold = float(np.median(ys[a:b]))
@@ -303,8 +304,7 @@ def _hold_releases(t, y, kind: str) -> list:
             continue
         seg = ys[b:k_end]
         rest = float(np.median(seg)) if len(seg) else level
-        sgn = np.sign(seg - rest)
-        zc = tu[b:k_end][1:][np.diff(sgn) != 0]
+        zc = _crossings(tu[b:k_end], seg - rest, 3.0 * sig.sigma)
         half = float(np.median(np.diff(zc))) if len(zc) > 2 else float("nan")
         if len(zc) <= 2:                # under 1.5 swings the segment's median is not the rest
             rest = _sat_at(ys, pauses, a, tol, rest)
@@ -312,6 +312,19 @@ def _hold_releases(t, y, kind: str) -> list:
                            y_release=hold, y_rest=rest, held_from_s=float(tu[a]), half_period_s=half,
                            noise=sig.sigma, kind=kind))
     return out
+
+
+def _crossings(t: np.ndarray, d: np.ndarray, band: float) -> np.ndarray:
+    """The instants at which d changes sign, each counted once it is more than `band` past zero
+    on the other side: a sample on the level itself (the median of an odd count is one) or noise
+    about it made two crossings of one (the proposed 0.6 rad release of the design's closed loop,
+    one swing in its window, then read as 1.5 swings about the swing's median)."""
+    side = np.where(d > band, 1, np.where(d < -band, -1, 0))
+    k = np.nonzero(side)[0]
+    if len(k) < 2:
+        return t[:0]
+    flips = k[1:][np.diff(side[k]) != 0]
+    return t[flips]
 
 
 def _through_tremor(runs: list, ys, max_gap: int, band: float) -> list:
