@@ -269,3 +269,26 @@ def test_a_candidate_that_diverges_at_a_release_separates_nothing_there():
     sc = scores(g, 1e-3, 2.0)
     assert all(sc.pair[i][w] == ("a", "b") for i in range(len(sc.durations)) for w in range(2))
     assert np.all(sc.gap[:, 1] == 0.0) and np.all(sc.gap[:, 0] > 0.0)
+
+
+def test_a_shell_candidate_that_rolls_over_is_held_there_and_named():
+    """A free-pendulum candidate fitted to 0.05 rad swings and released at 0.45 rad ran off to
+    1e12 rad without reaching NaN, and `design.md` read 'differ by 4.97e+12 rad RMS (1.61e+14 noise
+    levels)' (the steer-setting closed loop, case 1).  Past 90 degrees from rest the shell has
+    rolled over: the prediction is held there, its variance bounded, the release marked; a
+    swinging candidate is left as it is."""
+    from roboball.design.experiments import RUNAWAY_RAD, rolled_over
+
+    rest = -0.03
+    t = np.arange(0.0, 3.0, 0.01)
+    swing = rest + 0.4 * np.cos(2.3 * t)
+    away = rest - 0.45 * np.exp(6.0 * t)                 # passes -pi/2 near t = 0.21 s, then 1e7
+    y = np.vstack([swing, away])
+    var = np.vstack([np.full_like(t, 1e-6), np.full_like(t, 1e-6) * np.exp(12.0 * t)])
+    y2, var2, ran = rolled_over(y, var, rest)
+    assert ran.tolist() == [False, True]
+    assert np.array_equal(y2[0], swing) and np.array_equal(var2[0], var[0])
+    k = int(np.argmax(np.abs(away - rest) > RUNAWAY_RAD))
+    assert np.array_equal(y2[1, :k], away[:k])
+    assert np.all(y2[1, k:] == rest - RUNAWAY_RAD)
+    assert np.max(var2[1]) <= RUNAWAY_RAD ** 2

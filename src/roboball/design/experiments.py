@@ -34,6 +34,10 @@ AMPLITUDES = {"stand": tuple(round(0.1 * i, 2) for i in range(1, 16)),
               "shell_rock": tuple(round(0.05 * i, 2) for i in range(1, 13))}
 SETTLE_FACTORS = (1.0, 2.0)     # each release's duration, in units of the user's window
 AT_REST = 0.02          # rad/s: slower than this, a body is at rest (its dry friction holds it or it creeps)
+# rad from rest: a shell rolled further has its pendulum above the horizontal and rolls over; a
+# candidate whose fit predicts that (one fitted to small swings, released far beyond them) runs
+# away, and how far its reduced model then says it goes (1e12 rad, seen) means nothing
+RUNAWAY_RAD = math.pi / 2
 
 
 @dataclass
@@ -47,6 +51,7 @@ class Grid:
     var: dict                       # candidate label -> (W, N) variance over the parameter draws
     feasible: np.ndarray            # (W,) the swing stays inside the joint's limits for every candidate
     moving: np.ndarray              # (W, N) samples before every candidate has come to rest
+    runaway: dict                   # candidate label -> (W,) its prediction left RUNAWAY_RAD from rest
 
 
 def user_timing(prep: Prepared) -> tuple[float, float]:
@@ -124,16 +129,37 @@ def grid(src, choice, steer_joint: str | None) -> Grid:
     rest = choice.candidates[0].model(src.kind, steer_joint).rest
     releases = releases_for(src.kind, rest)
     synth = synthetic(src.prep, releases, t)
-    central, var, speed = {}, {}, np.zeros((len(releases), len(t)))
+    central, var, runaway, speed = {}, {}, {}, np.zeros((len(releases), len(t)))
     for cand in choice.candidates:
-        central[cand.label], var[cand.label], rate = predict(cand, src.kind, synth, steer_joint,
-                                                             np.random.default_rng(SEED))
-        speed = np.maximum(speed, np.abs(rate))
+        y, v, rate = predict(cand, src.kind, synth, steer_joint, np.random.default_rng(SEED))
+        if src.kind == "shell_rock":
+            y, v, runaway[cand.label] = rolled_over(y, v, cand.model(src.kind, steer_joint).rest)
+        else:
+            runaway[cand.label] = np.zeros(len(releases), bool)
+        central[cand.label], var[cand.label] = y, v
+        speed = np.maximum(speed, np.where(np.isfinite(rate), np.abs(rate), 0.0))
     lo, hi = limits(src.kind)
     feasible = np.ones(len(releases), bool)
     for y in central.values():
         feasible &= np.all((y >= lo) & (y <= hi), axis=1) & np.all(np.isfinite(y), axis=1)
-    return Grid(steer_joint or "", releases, t, central, var, feasible, moving(speed, t))
+    return Grid(steer_joint or "", releases, t, central, var, feasible, moving(speed, t), runaway)
+
+
+def rolled_over(y: np.ndarray, var: np.ndarray, rest: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A shell candidate's predictions (W, N) and their variance held at `RUNAWAY_RAD` from `rest`
+    from the sample they first pass it on (the shell has rolled over; the model's angle beyond
+    says nothing), and which releases (W,) did.  A candidate that rolls over where the other
+    swings back is told from it all the same, by at most the bound: the separation stays a
+    number of noise levels a recording can show."""
+    with np.errstate(invalid="ignore"):
+        past = np.abs(y - rest) > RUNAWAY_RAD
+    after = np.cumsum(past, axis=1) > 0
+    first = np.argmax(past, axis=1)
+    side = np.sign(y[np.arange(len(y)), first] - rest)
+    side = np.where(np.isfinite(side) & (side != 0), side, 1.0)
+    y = np.where(after, rest + RUNAWAY_RAD * side[:, None], y)
+    var = np.where(after, np.minimum(np.nan_to_num(var, nan=np.inf), RUNAWAY_RAD ** 2), var)
+    return y, var, after.any(axis=1)
 
 
 def moving(speed: np.ndarray, t: np.ndarray) -> np.ndarray:

@@ -103,4 +103,5 @@ def _entry(src, choice, g: Grid, sc: Scores, i: int, combo, rest: float, dt: flo
                   "separation_vs_residual": round(rms / src.residual, 4),
                   "expected_chi2_gap": round(gap, 2)})
     entry["settles"] = entry["separation"] >= SETTLES
+    entry["rolls_over"] = sorted(c for c, r in g.runaway.items() if any(r[w] for w in combo))
     return entry

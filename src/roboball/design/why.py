@@ -16,6 +16,10 @@ def why(src, choice, best: dict, user: dict | None) -> str:
     at = ", ".join(f"{x:+.2f}" for x in best["release_from_rest_rad"])
     text = (f"released at {at} rad from rest, {a} and {b} differ by {best['rms_difference_rad']:.3g} rad RMS "
             f"({best['separation']:.3g} noise levels with the parameters' uncertainty)")
+    if best.get("rolls_over"):
+        text += (f"; {' and '.join(best['rolls_over'])} rolls the shell over there (its fit, made on the user's "
+                 f"smaller swings, turns it past 90 degrees from rest, counted as held there): a recording shows "
+                 f"at once which one it is, though not how far the fit is from the truth there")
     if user is not None and not same_experiment(user, best):
         text += (f", where a repeat of the user's release ({user['release_from_rest_rad'][0]:+.2f} rad) separates them by "
                  f"{user['separation']:.3g}")
