@@ -30,6 +30,7 @@ class _Swings:
     vals: list
     half_periods: list
     last: int
+    grown_at: int | None = None     # the turning point that ended a move larger than the swing before it
 
     @property
     def single(self) -> bool:
@@ -85,7 +86,8 @@ def oscillation_releases(sig: PreparedSignal, kind: str, min_hold_s: float, min_
             j += 1  # the start of a hold inside a monotone stretch: a release starts at its end
             continue
         sw = _follow_swings(sig, ext, inner_holds, j, min_hold_s, hold_speed)
-        release = _release_of(sig, ext, sw, floor_index, kind, min_hold_s, min_offset_sigma, hold_speed)
+        release = _release_of(sig, ext, sw, inner_holds, floor_index, kind, min_hold_s, min_offset_sigma,
+                              hold_speed)
         if release is None:
             j += 1
             continue
@@ -109,6 +111,7 @@ def _follow_swings(sig: PreparedSignal, ext: np.ndarray, inner_holds: set, j: in
     hp_list: list[float] = [tu[k1] - tu[k0]]
     vals.append(ys[k1])
     last = j + 1
+    grown_at = None
     m = j + 2
     while m < n_ext:
         if m in inner_holds:
@@ -120,6 +123,7 @@ def _follow_swings(sig: PreparedSignal, ext: np.ndarray, inner_holds: set, j: in
         if m >= j + 3 and (hp > 2.0 * ref or hp < 0.5 * ref):
             break  # the rhythm breaks: a stop, a hold or noise
         if m >= j + 3 and p2p > 1.25 * p2p_prev + 2 * h:
+            grown_at = m
             break  # the amplitude grows: a hand moves the body
         if p2p < 1.2 * h:
             break  # the swings have sunk into the noise
@@ -131,15 +135,16 @@ def _follow_swings(sig: PreparedSignal, ext: np.ndarray, inner_holds: set, j: in
         vals.append(ys[ext[m]])
         last = m
         m += 1
-    return _Swings(j=j, k0=k0, k1=k1, vals=vals, half_periods=hp_list, last=last)
+    return _Swings(j=j, k0=k0, k1=k1, vals=vals, half_periods=hp_list, last=last, grown_at=grown_at)
 
 
-def _release_of(sig: PreparedSignal, ext: np.ndarray, sw: _Swings, floor_index: int, kind: str,
+def _release_of(sig: PreparedSignal, ext: np.ndarray, sw: _Swings, inner_holds: set, floor_index: int, kind: str,
                 min_hold_s: float, min_offset_sigma: float, hold_speed: float) -> Release | None:
     """The release at the start of `sw`, or None if its start is no hand's release: no rest to
     swing about, no swing that fits a free oscillation about it, or no hold before it.
     `floor_index`: the grid index before which the hold may not start (the previous response)."""
-    if _held_first_turn(sig, ext, sw, min_hold_s, hold_speed):
+    if _held_first_turn(sig, ext, sw, min_hold_s, hold_speed) or _grown_unheld(sig, ext, sw, inner_holds,
+                                                                               min_hold_s, hold_speed):
         return None
     found = _rest_candidates(sig, ext, sw)
     if found is None:
@@ -183,6 +188,24 @@ def _held_first_turn(sig: PreparedSignal, ext: np.ndarray, sw: _Swings, min_hold
     omega = math.pi / max(float(sw.half_periods[1]), 2 * sig.dt)
     return is_hold(sig, ext, sw.j + 1, omega=omega, amplitude=amplitude, min_hold_s=min_hold_s,
                    hold_speed=hold_speed)
+
+
+def _grown_unheld(sig: PreparedSignal, ext: np.ndarray, sw: _Swings, inner_holds: set, min_hold_s: float,
+                  hold_speed: float) -> bool:
+    """Whether the swings ended in a move larger than the swing before it (taken for a hand's)
+    that no hold ends: a hand that takes a swinging body moves it into its next hold, at the
+    turning point that ends the move or the one after.  A shell creeping to rest in steps (the
+    pendulum free on its joint, heavily damped: each of its swings pauses the shell) makes such
+    moves with no hold after them, and its first step passed for a release swinging about a rest
+    0.3-0.5 rad from where the shell settles (the steer-setting closed loop's proposed recordings).
+    A record that ends within the move shows no hold either way and is left alone."""
+    m = sw.grown_at
+    if m is None or m + 1 >= len(ext):
+        return False
+    omega = math.pi / max(float(np.median(sw.half_periods[1:])), 2 * sig.dt)
+    return not any(k in inner_holds or is_hold(sig, ext, k, omega=omega, min_hold_s=min_hold_s, hold_speed=hold_speed,
+                                               amplitude=0.5 * abs(float(sig.ys[ext[k]] - sig.ys[ext[k - 1]])))
+                   for k in (m, m + 1))
 
 
 def _rest_candidates(sig: PreparedSignal, ext: np.ndarray, sw: _Swings) -> tuple[float, int, list[float]] | None:
@@ -273,12 +296,15 @@ def _hold_before(sig: PreparedSignal, sw: _Swings, offset: float, half_period: f
         s = s + int(away[-1]) + 1
     # From the end of the hold, the first half swing lasts about a half period.  Measured from
     # one half swing alone, the half period has no rhythm check but this one, and must agree
-    # more closely: a hand's move into a hold whose tremor wiggles once (3-5 mrad at about 2 Hz
-    # after a 0.07 rad move), or one swing cut by the end of the record, gave a first half swing
-    # of 1.9-2.0 such half periods; the free releases of the campaign and the real logs give
-    # 0.76-1.29.
-    longest = 2.0 if measured >= 2 else 1.5
-    ok = single or 0.5 <= (tu[k1] - tu[c]) / half_period <= longest
+    # more closely, from a swing that is no wiggle: a hand's move into a hold whose tremor
+    # wiggles once (3-5 mrad at about 2 Hz after a 0.07-0.08 rad move: 5.3-5.5% of the move), or
+    # one swing cut by the end of the record, gave a first half swing of 1.48-2.0 such half
+    # periods; the free releases of the campaign and the real logs give 0.76-1.29, their one
+    # measured swing 34-54% of the first.
+    ok = single or 0.5 <= (tu[k1] - tu[c]) / half_period <= 2.0
+    if not single and measured < 2:
+        ok = ok and (tu[k1] - tu[c]) / half_period <= 1.5 and \
+            abs(sw.vals[2] - sw.vals[1]) >= 0.2 * abs(sw.vals[1] - sw.vals[0])
     held_long = long_enough(tu[c] - tu[s], v_thr, offset, omega, min_hold_s)
     # A record that starts at rest away from rest (a simulation started at the
     # release state, or a log started during the hold) begins with its release.
