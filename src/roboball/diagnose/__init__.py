@@ -5,7 +5,8 @@ the baseline leaves out, model it, and show the fit improve (issue 6; contract
     from roboball.diagnose import diagnose
     d, js = diagnose("raw_data/steer_stand/steer_stand_r1.csv", out_dir="results/diagnose/steer")
 
-Modules, in the order a diagnosis runs: data (fit windows of the releases; the fast batched
+Modules, in the order a diagnosis runs: data (fit windows of the releases; handholds, its fallback
+release finder for records with no decaying oscillation; the fast batched
 reduced models are in roboball.reduced), fit (batched Levenberg-Marquardt by simulation error),
 scored (the selection's settings and scored models), crossval (held-out errors), keep (the keep
 rule: BIC, held-out error, materiality, 95% intervals), select (beam search over small sets of
