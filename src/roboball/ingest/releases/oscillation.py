@@ -86,8 +86,7 @@ def oscillation_releases(sig: PreparedSignal, kind: str, min_hold_s: float, min_
             j += 1  # the start of a hold inside a monotone stretch: a release starts at its end
             continue
         sw = _follow_swings(sig, ext, inner_holds, j, min_hold_s, hold_speed)
-        release = _release_of(sig, ext, sw, inner_holds, floor_index, kind, min_hold_s, min_offset_sigma,
-                              hold_speed)
+        release = _release_of(sig, ext, sw, floor_index, kind, min_hold_s, min_offset_sigma, hold_speed)
         if release is None:
             j += 1
             continue
@@ -138,13 +137,12 @@ def _follow_swings(sig: PreparedSignal, ext: np.ndarray, inner_holds: set, j: in
     return _Swings(j=j, k0=k0, k1=k1, vals=vals, half_periods=hp_list, last=last, grown_at=grown_at)
 
 
-def _release_of(sig: PreparedSignal, ext: np.ndarray, sw: _Swings, inner_holds: set, floor_index: int, kind: str,
+def _release_of(sig: PreparedSignal, ext: np.ndarray, sw: _Swings, floor_index: int, kind: str,
                 min_hold_s: float, min_offset_sigma: float, hold_speed: float) -> Release | None:
     """The release at the start of `sw`, or None if its start is no hand's release: no rest to
     swing about, no swing that fits a free oscillation about it, or no hold before it.
     `floor_index`: the grid index before which the hold may not start (the previous response)."""
-    if _held_first_turn(sig, ext, sw, min_hold_s, hold_speed) or _grown_unheld(sig, ext, sw, inner_holds,
-                                                                               min_hold_s, hold_speed):
+    if _held_first_turn(sig, ext, sw, min_hold_s, hold_speed) or _grown_unheld(sig, ext, sw, min_hold_s):
         return None
     found = _rest_candidates(sig, ext, sw)
     if found is None:
@@ -190,22 +188,29 @@ def _held_first_turn(sig: PreparedSignal, ext: np.ndarray, sw: _Swings, min_hold
                    hold_speed=hold_speed)
 
 
-def _grown_unheld(sig: PreparedSignal, ext: np.ndarray, sw: _Swings, inner_holds: set, min_hold_s: float,
-                  hold_speed: float) -> bool:
+def _grown_unheld(sig: PreparedSignal, ext: np.ndarray, sw: _Swings, min_hold_s: float) -> bool:
     """Whether the swings ended in a move larger than the swing before it (taken for a hand's)
-    that no hold ends: a hand that takes a swinging body moves it into its next hold, at the
-    turning point that ends the move or the one after.  A shell creeping to rest in steps (the
-    pendulum free on its joint, heavily damped: each of its swings pauses the shell) makes such
-    moves with no hold after them, and its first step passed for a release swinging about a rest
-    0.3-0.5 rad from where the shell settles (the steer-setting closed loop's proposed recordings).
-    A record that ends within the move shows no hold either way and is left alone."""
+    that is no hand's: a hand that takes a swinging body moves it into its next hold and lets go
+    from there, so the body stays where the move ended (within 5% of the move and 3 noise levels,
+    its tremor included) for `min_hold_s` and then swings back.  A shell creeping to rest in steps
+    (the pendulum free on its joint, heavily damped: each of its swings pauses the shell) pauses
+    too briefly or goes on the move's way after the pause, and its first step passed for a
+    release swinging about a rest 0.3-0.5 rad from where the shell settles (the steer-setting
+    closed loop's proposed recordings).  A record that ends within the move or the hold shows
+    neither and is left alone."""
     m = sw.grown_at
     if m is None or m + 1 >= len(ext):
         return False
-    omega = math.pi / max(float(np.median(sw.half_periods[1:])), 2 * sig.dt)
-    return not any(k in inner_holds or is_hold(sig, ext, k, omega=omega, min_hold_s=min_hold_s, hold_speed=hold_speed,
-                                               amplitude=0.5 * abs(float(sig.ys[ext[k]] - sig.ys[ext[k - 1]])))
-                   for k in (m, m + 1))
+    tu, ys = sig.tu, sig.ys
+    k = int(ext[m])
+    move = float(ys[k] - ys[ext[m - 1]])
+    away = np.nonzero(np.abs(ys[k:] - ys[k]) > 0.05 * abs(move) + 3 * sig.sigma)[0]
+    if away.size == 0:
+        return False
+    left = k + int(away[0])
+    if tu[left] - tu[k] < min_hold_s:
+        return True
+    return bool(np.sign(ys[left] - ys[k]) == np.sign(move))
 
 
 def _rest_candidates(sig: PreparedSignal, ext: np.ndarray, sw: _Swings) -> tuple[float, int, list[float]] | None:
