@@ -86,6 +86,14 @@ def test_large_releases_separate_inertia_from_stiffness(tmp_path):
     assert abs(user["release_from_rest_rad"][0] - RELEASE) < 0.051
     assert best["separation"] > 3 * user["separation"]
     assert "sin" in js["choices"][0]["why"]
+    # the best release of the user's length, by the one measure every experiment has (the refit
+    # covers a shortlist, which held no release of that length but the user's own: design.md then
+    # named the user's repeat the best of its length, over releases predicted far apart)
+    single = js["choices"][0]["best_single_release"]
+    same = [r for r in js["experiments"] if len(r["release_rad"]) == 1 and r["settle_s"] == user["settle_s"]]
+    assert single["settle_s"] == user["settle_s"]
+    assert single["expected_chi2_gap"] >= max(r["expected_chi2_gap"] for r in same)
+    assert abs(single["release_from_rest_rad"][0]) > abs(user["release_from_rest_rad"][0])
     md = (tmp_path / "out" / "design.md").read_text()
     # the repeat is named apart only when it is another experiment than the best
     assert "A repeat of the user's release" in md and "recorded again" not in md
@@ -292,3 +300,18 @@ def test_a_shell_candidate_that_rolls_over_is_held_there_and_named():
     assert np.array_equal(y2[1, :k], away[:k])
     assert np.all(y2[1, k:] == rest - RUNAWAY_RAD)
     assert np.max(var2[1]) <= RUNAWAY_RAD ** 2
+
+
+def test_the_best_release_of_the_user_s_length_is_ranked_by_the_expected_gap():
+    """Ranked rows put the refitted shortlist first; when the shortlist holds no release of the
+    user's length but the user's own repeat (separation 1.25 refitted), design.md named that
+    repeat the best of its length, over a release of the same length predicted 112 noise levels
+    apart (the steer-setting closed loop, case 1)."""
+    from roboball.design.plan import _best_single
+
+    user = {"release_rad": [-0.08], "settle_s": 1.9, "expected_chi2_gap": 300.0, "refitted": True}
+    rows = [{"release_rad": [0.57], "settle_s": 3.9, "expected_chi2_gap": 5e6, "refitted": True}, user,
+            {"release_rad": [-0.28], "settle_s": 1.9, "expected_chi2_gap": 2.4e6, "refitted": False},
+            {"release_rad": [-0.28, 0.57], "settle_s": 1.9, "expected_chi2_gap": 9e6, "refitted": False}]
+    assert _best_single(rows, user) is rows[2]
+    assert _best_single([], user) is None and _best_single(rows, None) is None

@@ -56,8 +56,9 @@ def markdown(js: dict) -> str:
                   f"the diagnosed model's residual), expected chi^2 gap {best['expected_chi2_gap']:.4g}.", ""]
         single = c.get("best_single_release")
         if single and single is not best:
-            lines += [f"Best single release of the user's length: {_settings(single)}: separation "
-                      f"{single['separation']:.3g}.", ""]
+            lines += [f"Best single release of the user's length: {_settings(single)}: predicted separation "
+                      f"{single['separation_predicted']:.3g} noise levels (at the fitted values, the parameters' "
+                      f"uncertainty included; not refitted).", ""]
         u = c.get("user_like")
         if u and same_experiment(u, best):
             lines += ["This is the user's own first release, recorded again: of the releases the rig allows, the "

@@ -42,8 +42,7 @@ def plan(src, log=None) -> tuple[dict, dict]:
                    "candidates": [{"label": c.label, "effects": list(c.effects), "steer_joint": c.steer_joint or None,
                                    "mechanism": choice.mechanism.get(c.label, "")} for c in choice.candidates],
                    "experiments_considered": len(rows), "best": best, "user_like": user,
-                   "best_single_release": next((r for r in rows if len(r["release_rad"]) == 1
-                                                and r["settle_s"] == (user or best)["settle_s"]), None)}
+                   "best_single_release": _best_single(rows, user or best)}
         summary["settled"] = bool(best and best["settles"])
         summary["why"] = why(src, choice, best, user) if best else "no feasible experiment"
         if not summary["settled"]:
@@ -85,6 +84,14 @@ def _refitted(src, choice, rows: list, user, by_setting: dict) -> list:
                      separation_vs_residual=round(sep * src.noise / src.residual, 4), settles=sep >= SETTLES)
     done = sorted((r for r in rows if r["refitted"]), key=lambda r: -r["separation"])
     return done + [r for r in rows if not r["refitted"]]
+
+
+def _best_single(rows: list, like: dict | None) -> dict | None:
+    """The single release of `like`'s duration with the largest expected gap: the one measure
+    every experiment has (the refitted separation is computed for a shortlist only, and the
+    shortlist may hold no release of that duration but the user's own)."""
+    same = [r for r in rows if like and len(r["release_rad"]) == 1 and r["settle_s"] == like["settle_s"]]
+    return max(same, key=lambda r: r["expected_chi2_gap"], default=None)
 
 
 def _user_like(src, rows: list) -> dict | None:
