@@ -83,6 +83,32 @@ COUPLED = ("steer_coupled_20250429_165825.csv", "steer_coupled_20250429_165853.c
            "steer_coupled_20250429_165914.csv")
 
 
+def closed_loop_recording(folder, case: int, draw: int = 0, from_rest=None, free_s: float = 2.0, name: str = "first",
+                          stream: int = 1, first_release=(0.05, 0.1), noise: float | None = None) -> tuple[dict, Path]:
+    """(case, CSV path): a recording of `roboball design`'s steer-setting closed loop (seed 47),
+    made by the test bed as benchmarks/design_closed_loop.py makes it: case `case`'s draw `draw`
+    with the benchmark's `--first-release` (None: its default) and `--noise`, released at
+    `from_rest` (rad from rest; None: the case's own first release), each left `free_s`."""
+    import sys
+
+    sys.path.insert(0, str(REPO / "benchmarks"))
+    import design_closed_loop as loop
+
+    saved = dict(loop.FIRST_RELEASE), dict(loop.NOISE)
+    if first_release is not None:
+        loop.FIRST_RELEASE["steer_setting"] = tuple(first_release)
+    if noise is not None:
+        loop.NOISE["steer_setting"] = noise
+    try:
+        c = loop.draw_case("steer_setting", case, 47, draw)
+        path = loop.record(c, [c["release"]] if from_rest is None else from_rest, free_s, Path(folder), name, stream)
+    finally:
+        for table, old in zip((loop.FIRST_RELEASE, loop.NOISE), saved):
+            table.clear()
+            table.update(old)
+    return c, path
+
+
 def real_file(name: str) -> Path:
     """Path of one real log in REAL_DATA; skips the test (saying where it looked) if it is missing."""
     path = REAL_DATA / name

@@ -384,19 +384,10 @@ def test_a_tremor_of_a_tenth_of_a_small_move_is_still_the_hand_s_hold(tmp_path, 
     held locked): the tremor's excursions from the hold lasted up to 0.5 s, and joined across
     0.2 s the hold broke in two; its first part was taken for the hold and the release came
     0.5 s early, or the stillness at rest for a hold with a rest 0.09 rad off."""
-    import sys
+    from conftest import closed_loop_recording
 
-    from conftest import REPO
-    sys.path.insert(0, str(REPO / "benchmarks"))
-    import design_closed_loop as loop
-
-    saved = loop.FIRST_RELEASE["steer_setting"]
-    loop.FIRST_RELEASE["steer_setting"] = (0.05, 0.1)
-    try:
-        c = loop.draw_case("steer_setting", case, 47, draw)
-    finally:
-        loop.FIRST_RELEASE["steer_setting"] = saved
-    d = pd.read_csv(loop.record(c, [c["release"]], 2.0, tmp_path, "first", 1))
+    c, path = closed_loop_recording(tmp_path, case, draw)
+    d = pd.read_csv(path)
     t, y = d.time_s.to_numpy(), d.pipe_angle_rad.to_numpy()
     sat = float(np.median(y[t < 0.9]))
     moved = t[np.nonzero(np.abs(y - sat) > 0.5 * abs(c["release"]))[0][0]]
@@ -429,19 +420,9 @@ def test_a_shell_creeping_to_rest_in_steps_keeps_the_hand_s_hold_as_its_release(
     passed for a hold the hand's hold went straight into, so the hand's hold was taken for the
     start of a move and the last pause for the release.  The release is the end of the hand's
     hold, its window the whole creep, its rest where the shell sat before the hand took it."""
-    import sys
+    from conftest import closed_loop_recording
 
-    from conftest import REPO
-    sys.path.insert(0, str(REPO / "benchmarks"))
-    import design_closed_loop as loop
-
-    saved = loop.FIRST_RELEASE["steer_setting"]
-    loop.FIRST_RELEASE["steer_setting"] = (0.05, 0.1)
-    try:
-        c = loop.draw_case("steer_setting", case, 47, draw)
-    finally:
-        loop.FIRST_RELEASE["steer_setting"] = saved
-    d = pd.read_csv(loop.record(c, [release], settle_s, tmp_path, "designed", stream))
+    d = pd.read_csv(closed_loop_recording(tmp_path, case, draw, [release], settle_s, "designed", stream)[1])
     t, y = d.time_s.to_numpy(), d.pipe_angle_rad.to_numpy()
     sat = float(np.median(y[t < 0.9]))
     held = np.nonzero(np.abs(y - sat - release) < 0.02)[0]          # the hand's hold

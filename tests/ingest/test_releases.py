@@ -539,42 +539,12 @@ def test_a_hand_s_move_from_rest_into_its_hold_is_no_release(tmp_path, case):
     docs/diagnosis.md).  A free half swing turns at once; a turning point held that long is the
     hand's.  The hand takes at least 0.6 s to move and holds at least 0.8 s, so no release
     found may start before 2.4 s."""
-    import sys
+    from conftest import closed_loop_recording
 
-    from conftest import REPO
-    sys.path.insert(0, str(REPO / "benchmarks"))
-    import design_closed_loop as loop
-
-    saved = dict(loop.NOISE)
-    loop.NOISE["steer_setting"] = 0.003
-    try:
-        c = loop.draw_case("steer_setting", case, 47, 0)
-        path = loop.record(c, [c["release"]], 1.0, tmp_path, "first", 1)
-    finally:
-        loop.NOISE.clear()
-        loop.NOISE.update(saved)
     from roboball.diagnose.data import read
+    _, path = closed_loop_recording(tmp_path, case, free_s=1.0, first_release=None, noise=0.003)
     releases = recording_releases(read(path))
     assert all(r.t_release_s >= 2.4 for r in releases), [round(r.t_release_s, 2) for r in releases]
-
-
-def closed_loop_recording(folder, case: int, draw: int, from_rest, free_s: float, name: str, stream: int):
-    """A recording of roboball design's steer-setting closed loop (its `--first-release 0.05 0.1`
-    cases, seed 47), made by the test bed as benchmarks/design_closed_loop.py makes it."""
-    import sys
-
-    from conftest import REPO
-    sys.path.insert(0, str(REPO / "benchmarks"))
-    import design_closed_loop as loop
-
-    saved = loop.FIRST_RELEASE["steer_setting"]
-    loop.FIRST_RELEASE["steer_setting"] = (0.05, 0.1)
-    try:
-        c = loop.draw_case("steer_setting", case, 47, draw)
-    finally:
-        loop.FIRST_RELEASE["steer_setting"] = saved
-    from roboball.diagnose.data import read
-    return c, read(loop.record(c, [c["release"]] if from_rest is None else from_rest, free_s, folder, name, stream))
 
 
 @pytest.mark.parametrize("case, draw, from_rest, free_s, name, stream", [
@@ -595,7 +565,10 @@ def test_no_release_of_a_short_or_creeping_record_puts_its_rest_elsewhere(tmp_pa
     hand holds the body after it).  The diagnosis then fitted the hand's move, or a swing about
     the wrong rest.  No release found may put the rest elsewhere than where the body sat before
     the hand took it."""
-    c, rec = closed_loop_recording(tmp_path, case, draw, from_rest, free_s, name, stream)
+    from conftest import closed_loop_recording
+
+    from roboball.diagnose.data import read
+    rec = read(closed_loop_recording(tmp_path, case, draw, from_rest, free_s, name, stream)[1])
     rest = float(np.median(rec.signal("pipe_angle")[rec.time < 0.9]))
     releases = recording_releases(rec)
     assert all(abs(r.y_rest - rest) < 0.01 for r in releases), [(round(r.t_release_s, 2), round(r.y_rest, 3))
