@@ -57,12 +57,12 @@ from pathlib import Path
 import numpy as np
 from scipy.ndimage import maximum_filter1d, minimum_filter1d
 
+from roboball.diagnose.handholds import hold_releases
 from roboball.errors import RoboballError
 from roboball.ingest.recording import Recording, normalise
 from roboball.ingest.releases.find import require_releases
 from roboball.ingest.releases.record import Release
 from roboball.ingest.releases.signal import prepare_signal, zigzag
-from roboball.diagnose.handholds import hold_releases
 from roboball.kinds import NOT_YET, not_yet_message
 
 PRE_S = 0.05

@@ -204,13 +204,19 @@ def _grown_unheld(sig: PreparedSignal, ext: np.ndarray, sw: _Swings, min_hold_s:
     tu, ys = sig.tu, sig.ys
     k = int(ext[m])
     move = float(ys[k] - ys[ext[m - 1]])
-    away = np.nonzero(np.abs(ys[k:] - ys[k]) > 0.05 * abs(move) + 3 * sig.sigma)[0]
+    away = np.nonzero(np.abs(ys[k:] - ys[k]) > _in_place(sig, move))[0]
     if away.size == 0:
         return False
     left = k + int(away[0])
     if tu[left] - tu[k] < min_hold_s:
         return True
     return bool(np.sign(ys[left] - ys[k]) == np.sign(move))
+
+
+def _in_place(sig: PreparedSignal, move: float) -> float:
+    """How far a held body may stray from where a hand holds it (its tremor included): 5% of the
+    move into or out of the hold, and 3 noise levels."""
+    return 0.05 * abs(move) + 3 * sig.sigma
 
 
 def _rest_candidates(sig: PreparedSignal, ext: np.ndarray, sw: _Swings) -> tuple[float, int, list[float]] | None:
@@ -296,7 +302,7 @@ def _hold_before(sig: PreparedSignal, sw: _Swings, offset: float, half_period: f
         s, c = hold_around(sig, k0, k1, floor_index, v_thr)
     # Held means slow AND in place: no more than 5% of the offset (plus noise) away
     # from where it is let go (a slow hand movement is slow but not in place).
-    away = np.nonzero(np.abs(ys[s:c + 1] - ys[c]) > 0.05 * abs(offset) + 3 * sig.sigma)[0]
+    away = np.nonzero(np.abs(ys[s:c + 1] - ys[c]) > _in_place(sig, offset))[0]
     if away.size:
         s = s + int(away[-1]) + 1
     # From the end of the hold, the first half swing lasts about a half period.  Measured from
@@ -306,10 +312,10 @@ def _hold_before(sig: PreparedSignal, sw: _Swings, offset: float, half_period: f
     # one swing cut by the end of the record, gave a first half swing of 1.48-2.0 such half
     # periods; the free releases of the campaign and the real logs give 0.76-1.29, their one
     # measured swing 34-54% of the first.
-    ok = single or 0.5 <= (tu[k1] - tu[c]) / half_period <= 2.0
-    if not single and measured < 2:
-        ok = ok and (tu[k1] - tu[c]) / half_period <= 1.5 and \
-            abs(sw.vals[2] - sw.vals[1]) >= 0.2 * abs(sw.vals[1] - sw.vals[0])
+    one_swing = not single and measured < 2
+    ok = single or 0.5 <= (tu[k1] - tu[c]) / half_period <= (1.5 if one_swing else 2.0)
+    if one_swing:
+        ok = ok and abs(sw.vals[2] - sw.vals[1]) >= 0.2 * abs(sw.vals[1] - sw.vals[0])
     held_long = long_enough(tu[c] - tu[s], v_thr, offset, omega, min_hold_s)
     # A record that starts at rest away from rest (a simulation started at the
     # release state, or a log started during the hold) begins with its release.
