@@ -347,6 +347,63 @@ def test_adaptive_chain_resumes_identically_across_its_stages(tmp_path):
         sample_posterior(problem, lsq, tmp_path / "full.h5", max_steps=50, **{**kw, "adapt_schedule": (12, 20)})
 
 
+def test_a_chain_killed_inside_a_chunk_resumes_from_the_last_chunk_identically(tmp_path, monkeypatch):
+    """The chain is written a chunk at a time (roboball.identify.friction.backend): a fit killed
+    inside a chunk leaves the file at the end of the previous chunk, readable, and the resumed
+    chain is the uninterrupted one step for step.  A chain stored by emcee's own HDFBackend (one
+    write per step, as before) resumes the same way."""
+    import emcee
+
+    import roboball.identify.friction.backend as B
+
+    segs = segments_from_arrays(synthetic_stand("viscous", {"c": 0.3}, seed=3, angles=(0.6, -0.5), duration=2.0))
+    problem = FrictionProblem("steer_stand", "viscous", segs, law_priors("steer", "viscous"), dt=5e-3)
+    lsq = least_squares_fit(problem, seed=0)
+    kw = dict(seed=4, n_walkers=14, autocorr_multiple=1e6, chunk=5, min_steps=5, adapt_schedule=(10, 20))
+    full = sample_posterior(problem, lsq, tmp_path / "full.h5", max_steps=40, **kw)
+
+    class Killed(Exception):
+        pass
+
+    save_step = B.ChunkedHDFBackend.save_step
+
+    def killed_at_step_23(self, state, accepted):
+        if self.iteration + len(self._coords) == 22:
+            raise Killed
+        save_step(self, state, accepted)
+
+    path = tmp_path / "killed.h5"
+    monkeypatch.setattr(B.ChunkedHDFBackend, "save_step", killed_at_step_23)
+    with pytest.raises(Killed):
+        sample_posterior(problem, lsq, path, max_steps=40, **kw)
+    monkeypatch.undo()
+    stored = emcee.backends.HDFBackend(str(path), name="mcmc", read_only=True)
+    assert stored.iteration == 20 and np.array_equal(stored.get_chain(), full["chain"][:20])
+    resumed = sample_posterior(problem, lsq, path, max_steps=40, **kw)
+    assert resumed["resumed_from"] == 20 and np.array_equal(resumed["chain"], full["chain"])
+    assert np.array_equal(resumed["acceptance"], full["acceptance"])
+
+    # a chain written step by step by emcee's own backend is continued to the same chain
+    stock = tmp_path / "stock.h5"
+    monkeypatch.setattr(B, "ChunkedHDFBackend", _StockBackend)
+    first = sample_posterior(problem, lsq, stock, max_steps=15, **kw)
+    monkeypatch.undo()
+    assert first["n_steps"] == 15
+    resumed = sample_posterior(problem, lsq, stock, max_steps=40, **kw)
+    assert resumed["resumed_from"] == 15 and np.array_equal(resumed["chain"], full["chain"])
+
+
+class _StockBackend:
+    """emcee's HDFBackend with the chunked backend's flush (a no-op: it wrote every step)."""
+
+    def __new__(cls, *args, **kwargs):
+        import emcee
+
+        backend = emcee.backends.HDFBackend(*args, **kwargs)
+        backend.flush = lambda: None
+        return backend
+
+
 def test_a_chain_sampled_by_other_code_or_robot_facts_is_not_resumed(tmp_path):
     """The pipeline reruns a fit when its code or the robot facts change, and the HDF5 chain
     must not carry the old posterior into it: a stored chain records the source fingerprint of

@@ -7,9 +7,9 @@ least-squares Laplace approximation; differential-evolution moves adapt, then an
 proposal (multivariate t fitted to the samples so far, refitted at each stage of
 :data:`ADAPT_SCHEDULE`, then frozen) mixed with DE moves samples
 (:mod:`roboball.identify.friction.moves`).  All walkers of a proposal are simulated in
-one vectorised call (``vectorize=True``).  The chain is stored with
-``emcee.backends.HDFBackend``; an interrupted run resumes from the stored chain and its random
-state (:mod:`roboball.identify.friction.chain`).
+one vectorised call (``vectorize=True``).  The chain is stored in emcee's HDF5
+layout, a chunk of steps at a time (:mod:`roboball.identify.friction.backend`); an interrupted
+run resumes from the stored chain and its random state (:mod:`roboball.identify.friction.chain`).
 
 Convergence is measured, not assumed: the chain runs in chunks until its post-burn-in length
 is at least ``autocorr_multiple`` (default 50) times the integrated autocorrelation time of
@@ -196,6 +196,7 @@ def _run(problem: FrictionProblem, backend, plan: _Plan, sampler, stage: int, in
             sampler = _make_sampler(problem, backend, plan, stage)
         state = initial if n == 0 else None
         sampler.run_mcmc(state, plan.target(n, stage) - n, progress=False)
+        backend.flush()
         initial = None
     return burn, tau, converged
 
@@ -234,14 +235,14 @@ def sample_posterior(problem: FrictionProblem, lsq: dict, chain_path: str | os.P
         ``converged``, ``acceptance``, ``n_steps``, ``resumed_from``, and the settings
         ``n_walkers``, ``autocorr_multiple``, ``max_steps``, ``chain_path``, ``adapt_schedule``.
     """
-    import emcee
+    from roboball.identify.friction.backend import ChunkedHDFBackend
 
     chain_path = Path(chain_path)
     chain_path.parent.mkdir(parents=True, exist_ok=True)
     plan = _plan(problem, n_walkers, autocorr_multiple, max_steps, chunk, moves, min_steps, adapt_schedule, stale)
     meta = _chain_meta(problem, plan, seed, code)
     resumed_from = steps_to_resume(chain_path, meta, stale)
-    backend = emcee.backends.HDFBackend(str(chain_path), name="mcmc")  # checkpoint: resumable emcee chain, checked by fingerprint on reuse
+    backend = ChunkedHDFBackend(str(chain_path), name="mcmc")  # checkpoint: resumable emcee chain, checked by fingerprint on reuse
     if resumed_from == 0:
         backend.reset(n_walkers, problem.ndim)
         write_meta(chain_path, meta)
