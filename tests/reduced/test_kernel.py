@@ -13,7 +13,6 @@ from roboball.reduced import kernel as K
 from roboball.config import load_robot
 from roboball.identify.friction.priors import law_fixed, law_priors
 from roboball.physics import friction
-from roboball.physics.mathns import scalar
 
 ROBOT = load_robot()
 TOL = 1e-9
@@ -86,14 +85,14 @@ def test_compiled_runs_do_not_depend_on_the_number_of_threads():
 @pytest.mark.parametrize("law", ["viscous", "coulomb_viscous", "majd"])
 def test_the_compiled_law_is_the_physics_function(law):
     """The loop calls friction.<law> itself, compiled with the scalar namespace."""
-    call = K._law_call(law)
+    code = K.LAW_CODES[law]
     p = friction.table1_params(ROBOT, law, "steer")
     if law == "coulomb_viscous":
         p.setdefault("v_tol", 0.01)
     row = np.array([p[k] for k in friction.PARAMS[law]], dtype=float)
     v = np.concatenate([np.linspace(-3.0, 3.0, 601), [0.0, 1e-9, -1e-9]])
     ref = friction.torque(law, v, p)
-    got = np.array([call(x, row, scalar()) for x in v])
+    got = np.array([K._friction(code, x, row) for x in v])
     assert np.max(np.abs(got - ref)) < 1e-12
 
 

@@ -24,22 +24,16 @@ NumPy's own SIMD functions (a wide CPU, unpinned) they differ in the last bits o
 tanh (`tests/reduced/test_compiled.py`).
 
 The kernels are cached on disk (Numba's `cache=True`): the first run in a fresh checkout
-compiles them (about 10 s), later processes load them.  Numba checks a cached kernel against
-the stamp of the file that defines it only, while these kernels hold the laws of
-roboball.physics compiled into them: after an edit of a law they would load the old machine code
-and disagree with NumPy.  So the cache lives in a folder named by a hash of every source the
-kernels are built from (`_kernel_cache_dir`); an edit anywhere there compiles afresh.
+compiles them (about 10 s), later processes load them.  The cache's folder is named by a hash of
+every source the kernels are built from, so an edit of a law compiles afresh
+(roboball.reduced.jitcache).
 """
 from __future__ import annotations
 
-import hashlib
 import math
-import os
-from pathlib import Path
 
-import numba
 import numpy as np
-from numba import njit, prange
+from numba import prange
 from numba.extending import overload
 
 from roboball.physics import effects as fx
@@ -47,39 +41,9 @@ from roboball.physics import friction as friction_laws
 from roboball.physics.mathns import scalar
 from roboball.reduced import ramp_equations as req
 from roboball.reduced import shell_steer_equations as seq
+from roboball.reduced.jitcache import cached_jit
 
 M = scalar()
-
-
-def _kernel_cache_dir() -> str:
-    """The folder of this module's cached kernels: under the user's NUMBA_CACHE_DIR if set, else
-    beside this file, named by a hash of the bytes of roboball/physics/*.py and
-    roboball/reduced/*.py (everything compiled into a kernel lives there)."""
-    here = Path(__file__).resolve().parent
-    digest = hashlib.sha256()
-    for folder in (here.parent / "physics", here):
-        for source in sorted(folder.glob("*.py")):
-            digest.update(source.name.encode())
-            digest.update(source.read_bytes())
-    base = numba.config.CACHE_DIR or str(here / "__pycache__")
-    return os.path.join(base, f"roboball-kernels-{digest.hexdigest()[:16]}")
-
-
-_CACHE_DIR = _kernel_cache_dir()
-
-
-def _jit(**options):
-    """njit with cache=True, cached in _CACHE_DIR.  Numba fixes a function's cache folder when it
-    is decorated, from numba.config.CACHE_DIR; it is set for that moment only, so other Numba
-    users in the process keep their own."""
-    def decorate(fn):
-        saved = numba.config.CACHE_DIR
-        numba.config.CACHE_DIR = _CACHE_DIR
-        try:
-            return njit(cache=True, **options)(fn)
-        finally:
-            numba.config.CACHE_DIR = saved
-    return decorate
 
 # effect codes of the compiled dispatch (`_torque`), with each law's parameters in order
 CODES = {"viscous_damping": 0, "coulomb_friction": 1, "stiction": 2, "quadratic_drag": 3,
@@ -97,19 +61,19 @@ def _stiction_peak_scalar(v_s):
     return impl
 
 
-_viscous = _jit()(fx.viscous_damping)
-_coulomb = _jit()(fx.coulomb_friction)
-_stiction = _jit()(fx.stiction)
-_quadratic = _jit()(fx.quadratic_drag)
-_linear = _jit()(fx.linear_stiffness)
-_cubic = _jit()(fx.cubic_stiffness)
-_offset = _jit()(fx.com_offset)
-_backlash = _jit()(fx.backlash)
-_rolling = _jit()(fx.rolling_resistance)
-_majd = _jit()(friction_laws.majd)
+_viscous = cached_jit()(fx.viscous_damping)
+_coulomb = cached_jit()(fx.coulomb_friction)
+_stiction = cached_jit()(fx.stiction)
+_quadratic = cached_jit()(fx.quadratic_drag)
+_linear = cached_jit()(fx.linear_stiffness)
+_cubic = cached_jit()(fx.cubic_stiffness)
+_offset = cached_jit()(fx.com_offset)
+_backlash = cached_jit()(fx.backlash)
+_rolling = cached_jit()(fx.rolling_resistance)
+_majd = cached_jit()(friction_laws.majd)
 
 
-@_jit()
+@cached_jit()
 def _torque(code, q, v, a, b, k_g):
     """The torque of effect `code` (CODES) with parameters (a, b) at (q, v)."""
     if code == 0:
@@ -131,7 +95,7 @@ def _torque(code, q, v, a, b, k_g):
     return _rolling(q, v, a, M)
 
 
-@_jit()
+@cached_jit()
 def _add_effects(tau, q, v, codes, par, r, k_g):
     """tau plus every effect of row r, in the plan's order; an effect whose magnitude is zero on
     the row adds nothing."""
@@ -142,7 +106,7 @@ def _add_effects(tau, q, v, codes, par, r, k_g):
     return tau
 
 
-@_jit()
+@cached_jit()
 def _stand_accel(q, v, r, k_g, c, inv_i, codes, par):
     tau = math.sin(q)
     tau *= -k_g
@@ -152,7 +116,7 @@ def _stand_accel(q, v, r, k_g, c, inv_i, codes, par):
     return tau
 
 
-@_jit()
+@cached_jit()
 def _shell_accel(q, v, r, k_g, mrd, mrd2, m0, codes, par):
     s = math.sin(q)
     tau = v * v
@@ -166,7 +130,7 @@ def _shell_accel(q, v, r, k_g, mrd, mrd2, m0, codes, par):
     return tau / den
 
 
-@_jit(parallel=True)
+@cached_jit(parallel=True)
 def _run_stand(q0, v0, n_steps, dt, k_g, c, inv_i, codes, par, Q, V):
     h2 = 0.5 * dt
     for r in prange(q0.size):
@@ -185,7 +149,7 @@ def _run_stand(q0, v0, n_steps, dt, k_g, c, inv_i, codes, par, Q, V):
             V[r, k] = v
 
 
-@_jit(parallel=True)
+@cached_jit(parallel=True)
 def _run_shell(q0, v0, n_steps, dt, k_g, mrd, mrd2, m0, codes, par, Q, V):
     h2 = 0.5 * dt
     for r in prange(q0.size):
@@ -204,11 +168,11 @@ def _run_shell(q0, v0, n_steps, dt, k_g, mrd, mrd2, m0, codes, par, Q, V):
             V[r, k] = v
 
 
-_steer_terms = _jit()(seq.pendulum_terms)
-_steer_solve = _jit()(seq.solve)
+_steer_terms = cached_jit()(seq.pendulum_terms)
+_steer_solve = cached_jit()(seq.solve)
 
 
-@_jit()
+@cached_jit()
 def _steer_accel(ph, th, v, w, r, geo, mj, k_g, codes, par):
     """ShellSteerModel.equations' accel for row r (roboball.reduced.shell_steer_equations); geo =
     ShellSteerModel.geometry(), mj = Majd's (f_w, f_c, sigma, omega_c, n)."""
@@ -218,7 +182,7 @@ def _steer_accel(ph, th, v, w, r, geo, mj, k_g, codes, par):
     return _steer_solve(m11, m12, geo[6], f1, f2)
 
 
-@_jit(parallel=True)
+@cached_jit(parallel=True)
 def _run_steer(q0, v0, th0, w0, n_steps, dt, geo, mj, k_g, codes, par, Q, V, TH, W):
     h2 = 0.5 * dt
     for r in prange(q0.size):
@@ -240,15 +204,15 @@ def _run_steer(q0, v0, th0, w0, n_steps, dt, geo, mj, k_g, codes, par, Q, V, TH,
         W[r] = w
 
 
-_ramp_terms = _jit()(req.terms)
-_ramp_rolling = _jit()(req.rolling)
-_ramp_sliding = _jit()(req.sliding)
-_ramp_exceeds = _jit()(req.exceeds_cone)
-_ramp_reversed = _jit()(req.slip_reversed)
-_ramp_restick = _jit()(req.restick)
+_ramp_terms = cached_jit()(req.terms)
+_ramp_rolling = cached_jit()(req.rolling)
+_ramp_sliding = cached_jit()(req.sliding)
+_ramp_exceeds = cached_jit()(req.exceeds_cone)
+_ramp_reversed = cached_jit()(req.slip_reversed)
+_ramp_restick = cached_jit()(req.restick)
 
 
-@_jit()
+@cached_jit()
 def _ramp_deriv(th, be, vs, w, wb, sliding, direction, r, k, mj, k_g, codes, par):
     """RampModel._equations' deriv for row r in its contact mode: (s'', theta'', beta'', the
     friction rolling needs, the normal force); k = ramp_equations.constants, mj = Majd's."""
@@ -262,7 +226,7 @@ def _ramp_deriv(th, be, vs, w, wb, sliding, direction, r, k, mj, k_g, codes, par
     return a_s, a_th, a_be, f_req, normal
 
 
-@_jit(parallel=True)
+@cached_jit(parallel=True)
 def _run_ramp(n_steps, dt, k, mj, k_g, codes, par, Y, Yd):
     """RampModel.simulate's loop, one row per thread, from rest; Y, Yd (B, n + 1)."""
     h2 = 0.5 * dt

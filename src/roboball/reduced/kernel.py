@@ -18,6 +18,10 @@ Scope: friction law only (no ``extra_torque`` callable and no work record; those
 NumPy loop).  ``tests/reduced/test_kernel.py`` checks that both loops give the same trajectories
 (within 1e-9 rad; they differ only by the last bits of exp/sin between libm and NumPy).
 Results do not depend on the number of threads: rows are independent.
+
+The loop is cached on disk like the diagnosis's (roboball.reduced.jitcache): compiling it took
+1.6 s of every friction fit.  The module imports Numba; roboball.reduced.planar imports it only
+where the compiled loop runs.
 """
 from __future__ import annotations
 
@@ -25,160 +29,140 @@ import inspect
 import math
 
 import numpy as np
+from numba import prange
 
 from roboball.physics import friction
 from roboball.physics.mathns import scalar
 from roboball.reduced.integrate import NEWTON_MAX_IT
+from roboball.reduced.jitcache import cached_jit
 
 __all__ = ["supports", "integrate_rows"]
 
-_KERNELS: dict = {}
+M = scalar()
+
+# the laws of the compiled loop, each with its parameters in ``friction.PARAMS[law]`` order
+LAW_CODES = {"viscous": 0, "coulomb_viscous": 1, "majd": 2}
+_viscous = cached_jit()(friction.viscous)
+_coulomb_viscous = cached_jit()(friction.coulomb_viscous)
+_majd = cached_jit()(friction.majd)
 
 
 def supports(law: str, extra_torque, record_work: bool) -> bool:
     """True when the compiled loop can run this batch: a friction law alone, no work record."""
-    return extra_torque is None and not record_work and law in friction.LAWS and law != "none"
+    return extra_torque is None and not record_work and law in LAW_CODES
 
 
-def _law_call(law: str):
-    """Compiled f(v, p, m): law `law` with its parameters in ``friction.PARAMS[law]`` order."""
-    from numba import njit
-
-    fn = njit(getattr(friction, law))
-    arity = len(friction.PARAMS[law])
-    if arity == 1:
-        return njit(lambda v, p, m: fn(v, p[0], m))
-    if arity == 4:
-        return njit(lambda v, p, m: fn(v, p[0], p[1], p[2], p[3], m))
-    if arity == 5:
-        return njit(lambda v, p, m: fn(v, p[0], p[1], p[2], p[3], p[4], m))
-    raise ValueError(f"no compiled call for a law with {arity} parameters")   # pragma: no cover
+@cached_jit(inline="always")
+def _friction(law, v, p):
+    """The torque of law `law` (LAW_CODES) with parameters p at joint rate v."""
+    if law == 0:
+        return _viscous(v, p[0], M)
+    if law == 1:
+        return _coulomb_viscous(v, p[0], p[1], p[2], p[3], M)
+    return _majd(v, p[0], p[1], p[2], p[3], p[4], M)
 
 
-def _kernel(law: str):
-    """The compiled time loop of law `law` (compiled once per law and process)."""
-    if law not in _KERNELS:
-        fric = _law_call(law)
-        _KERNELS[law] = _run_kernel(_accel_kernel(fric), _implicit_kernel(fric))
-    return _KERNELS[law]
+@cached_jit(inline="always")
+def _accel(law, q, v, p, gG, beta, const_m, inv_m0, M0, RG):
+    """The acceleration of one RK4 stage (inlined into the loop)."""
+    s = math.sin(q + beta)
+    tau = _friction(law, v, p)
+    if const_m:
+        return (tau - gG * s) * inv_m0
+    mm = M0 - 2.0 * RG * math.cos(q + beta)
+    return (tau - s * (gG + RG * v * v)) / mm
 
 
-def _accel_kernel(fric):
-    """Compiled accel(q, v, ...) of one RK4 stage (inlined into the loop)."""
-    from numba import njit
-
-    @njit(inline="always")
-    def accel(q, v, p, m, gG, beta, const_m, inv_m0, M0, RG):
-        s = math.sin(q + beta)
-        tau = fric(v, p, m)
-        if const_m:
-            return (tau - gG * s) * inv_m0
-        mm = M0 - 2.0 * RG * math.cos(q + beta)
-        return (tau - s * (gG + RG * v * v)) / mm
-
-    return accel
-
-
-def _implicit_kernel(fric):
-    """Compiled implicit(q, v, ...) -> (q1, v1): the backward-Euler stiction step."""
-    from numba import njit
-
-    @njit
-    def implicit(q, v, p, m, h, slope0, gG, beta, M0, RG):
-        s = math.sin(q + beta)
-        c_ = math.cos(q + beta)
-        mm = M0 - 2.0 * RG * c_
-        tau_o = -s * (gG + RG * v * v)
-        kq = -gG * c_
-        hm = h / mm
-        alpha = 1.0 - h * hm * kq
-        c = v + hm * tau_o
-        w_free = c / alpha
-        f_free = fric(w_free, p, m)
-        w_slip = (c + hm * f_free) / alpha
-        sgn = 1.0 if c > 0.0 else (-1.0 if c < 0.0 else 0.0)
-        lo = min(0.0, w_free)
-        hi = max(0.0, w_free)
-        w_stick = c / (alpha + hm * slope0)
-        if sgn * w_slip > 0:
-            w = w_slip
-        elif sgn * v > 0 and abs(v) < abs(w_free):
-            w = v
-        else:
-            w = w_stick
-        scale = abs(c) + 1e-300
-        f = fric(w, p, m)
-        for _ in range(NEWTON_MAX_IT):      # the NumPy loop's cap, frozen into the kernel
-            r = alpha * w - c - hm * f
-            if abs(r) <= 1e-11 * scale + 1e-14:
-                break
-            if r > 0:
-                hi = min(hi, w)
-            if r < 0:
-                lo = max(lo, w)
-            dw = max(1e-7 * abs(w), 1e-13)
-            dfdw = (fric(w + dw, p, m) - f) / dw
-            rp = alpha - hm * dfdw
-            w_n = w - r / (rp if rp > 0.05 * alpha else alpha)
-            if not (w_n > lo and w_n < hi):
-                w_n = 0.5 * (lo + hi)
-            w = w_n
-            f = fric(w, p, m)
-        return q + h * w, w
-
-    return implicit
+@cached_jit()
+def _implicit(law, q, v, p, h, slope0, gG, beta, M0, RG):
+    """The backward-Euler stiction step: (q1, v1)."""
+    s = math.sin(q + beta)
+    c_ = math.cos(q + beta)
+    mm = M0 - 2.0 * RG * c_
+    tau_o = -s * (gG + RG * v * v)
+    kq = -gG * c_
+    hm = h / mm
+    alpha = 1.0 - h * hm * kq
+    c = v + hm * tau_o
+    w_free = c / alpha
+    f_free = _friction(law, w_free, p)
+    w_slip = (c + hm * f_free) / alpha
+    sgn = 1.0 if c > 0.0 else (-1.0 if c < 0.0 else 0.0)
+    lo = min(0.0, w_free)
+    hi = max(0.0, w_free)
+    w_stick = c / (alpha + hm * slope0)
+    if sgn * w_slip > 0:
+        w = w_slip
+    elif sgn * v > 0 and abs(v) < abs(w_free):
+        w = v
+    else:
+        w = w_stick
+    scale = abs(c) + 1e-300
+    f = _friction(law, w, p)
+    for _ in range(NEWTON_MAX_IT):      # the NumPy loop's cap, frozen into the kernel
+        r = alpha * w - c - hm * f
+        if abs(r) <= 1e-11 * scale + 1e-14:
+            break
+        if r > 0:
+            hi = min(hi, w)
+        if r < 0:
+            lo = max(lo, w)
+        dw = max(1e-7 * abs(w), 1e-13)
+        dfdw = (_friction(law, w + dw, p) - f) / dw
+        rp = alpha - hm * dfdw
+        w_n = w - r / (rp if rp > 0.05 * alpha else alpha)
+        if not (w_n > lo and w_n < hi):
+            w_n = 0.5 * (lo + hi)
+        w = w_n
+        f = _friction(law, w, p)
+    return q + h * w, w
 
 
-def _run_kernel(accel, implicit):
-    """Compiled run(...): every row's RK4 loop with the implicit step, rows in parallel."""
-    from numba import njit, prange
-
-    @njit(parallel=True)
-    def run(P, q0, v0, band, slope0, h, nrow, gG, beta, const_m, M0s, RG, m, Q, V, n_impl):
-        h2 = h * h
-        for r in prange(q0.size):
-            M0 = M0s[r]                 # the row's inertia (a calibrated stand adds to it)
-            inv_m0 = 1.0 / M0
-            p = P[r]
-            q = q0[r]
-            v = v0[r]
-            b = band[r]
-            stiff = b > 0.0
-            Q[r, 0] = q
-            V[r, 0] = v
-            k = 0
-            n_r = nrow[r]
-            for i in range(n_r):
-                a1 = accel(q, v, p, m, gG, beta, const_m, inv_m0, M0, RG)
-                qh = q + (0.5 * h) * v
-                v2 = v + (0.5 * h) * a1
-                a2 = accel(qh, v2, p, m, gG, beta, const_m, inv_m0, M0, RG)
-                v3 = v + (0.5 * h) * a2
-                a3 = accel(qh + (0.25 * h2) * a1, v3, p, m, gG, beta, const_m, inv_m0, M0, RG)
-                qf = q + h * v
-                v4 = v + h * a3
-                a4 = accel(qf + (0.5 * h2) * a2, v4, p, m, gG, beta, const_m, inv_m0, M0, RG)
-                q_new = qf + (h2 / 6.0) * (a1 + a2 + a3)
-                v_new = v + (h / 6.0) * (a1 + 2.0 * (a2 + a3) + a4)
-                if stiff:
-                    in_band = abs(v) < b
-                    if in_band or abs(v_new) < b or v * v_new < 0.0:
-                        k += 1
-                        qi, vi = implicit(q, v, p, m, h, slope0[r], gG, beta, M0, RG)
-                        # as integrate.rk4_stiction: a crossing that does not stick stays with RK4
-                        if in_band or abs(vi) < b:
-                            q_new = qi
-                            v_new = vi
-                q = q_new
-                v = v_new
-                Q[r, i + 1] = q
-                V[r, i + 1] = v
-            for i in range(n_r + 1, Q.shape[1]):     # a row that stops early holds its last state
-                Q[r, i] = q
-                V[r, i] = v
-            n_impl[r] = k
-
-    return run
+@cached_jit(parallel=True)
+def _run(law, P, q0, v0, band, slope0, h, nrow, gG, beta, const_m, M0s, RG, Q, V, n_impl):
+    """Every row's RK4 loop with the implicit step, rows in parallel."""
+    h2 = h * h
+    for r in prange(q0.size):
+        M0 = M0s[r]                 # the row's inertia (a calibrated stand adds to it)
+        inv_m0 = 1.0 / M0
+        p = P[r]
+        q = q0[r]
+        v = v0[r]
+        b = band[r]
+        stiff = b > 0.0
+        Q[r, 0] = q
+        V[r, 0] = v
+        k = 0
+        n_r = nrow[r]
+        for i in range(n_r):
+            a1 = _accel(law, q, v, p, gG, beta, const_m, inv_m0, M0, RG)
+            qh = q + (0.5 * h) * v
+            v2 = v + (0.5 * h) * a1
+            a2 = _accel(law, qh, v2, p, gG, beta, const_m, inv_m0, M0, RG)
+            v3 = v + (0.5 * h) * a2
+            a3 = _accel(law, qh + (0.25 * h2) * a1, v3, p, gG, beta, const_m, inv_m0, M0, RG)
+            qf = q + h * v
+            v4 = v + h * a3
+            a4 = _accel(law, qf + (0.5 * h2) * a2, v4, p, gG, beta, const_m, inv_m0, M0, RG)
+            q_new = qf + (h2 / 6.0) * (a1 + a2 + a3)
+            v_new = v + (h / 6.0) * (a1 + 2.0 * (a2 + a3) + a4)
+            if stiff:
+                in_band = abs(v) < b
+                if in_band or abs(v_new) < b or v * v_new < 0.0:
+                    k += 1
+                    qi, vi = _implicit(law, q, v, p, h, slope0[r], gG, beta, M0, RG)
+                    # as integrate.rk4_stiction: a crossing that does not stick stays with RK4
+                    if in_band or abs(vi) < b:
+                        q_new = qi
+                        v_new = vi
+            q = q_new
+            v = v_new
+            Q[r, i + 1] = q
+            V[r, i + 1] = v
+        for i in range(n_r + 1, Q.shape[1]):     # a row that stops early holds its last state
+            Q[r, i] = q
+            V[r, i] = v
+        n_impl[r] = k
 
 
 def integrate_rows(model, law: str, params: dict, q0: np.ndarray, v0: np.ndarray, n: int, dt: float,
@@ -197,11 +181,10 @@ def integrate_rows(model, law: str, params: dict, q0: np.ndarray, v0: np.ndarray
     V = np.empty((B, n + 1))
     n_impl = np.zeros(B, dtype=np.int64)
     nrow = np.full(B, int(n), dtype=np.int64) if n_rows is None else np.minimum(np.asarray(n_rows, dtype=np.int64), n)
-    run = _kernel(law)
-    run(P, np.ascontiguousarray(q0, dtype=float), np.ascontiguousarray(v0, dtype=float),
+    _run(LAW_CODES[law], P, np.ascontiguousarray(q0, dtype=float), np.ascontiguousarray(v0, dtype=float),
         np.ascontiguousarray(band, dtype=float), np.ascontiguousarray(slope0, dtype=float),
         float(dt), nrow, float(model.g * model.mass_moment_kg_m), float(model.offset_rad),
         bool(model.constant_inertia), np.ascontiguousarray(M0),
-        float(model.radius_m * model.mass_moment_kg_m), scalar(), Q, V, n_impl)
+        float(model.radius_m * model.mass_moment_kg_m), Q, V, n_impl)
     return Q, V, int(n_impl.max()) if B else 0
 

@@ -74,7 +74,6 @@ from roboball.config import RobotFacts, load_robot
 from roboball.errors import RoboballError, SimulationError
 from roboball.kinds import MAIN_SIGNAL, OSCILLATING
 from roboball.physics import shell as shell_laws
-from roboball.reduced import kernel as reduced_kernel
 from roboball.reduced.integrate import Trajectory, friction_function, rk4_stiction, sample, stiff_band
 
 __all__ = [
@@ -248,6 +247,8 @@ def integrate(model: PlanarModel, law: str, params: Mapping, q0, qd0, duration: 
     RG = model.radius_m * model.mass_moment_kg_m
     m_min = (model.inertia0_kg_m2 if m0 is None else m0) - 2.0 * RG
     band, slope0 = stiff_band(ffun, 1.0 / m_min, dt, stiff_kappa, B)
+    if compiled:
+        from roboball.reduced import kernel as reduced_kernel    # imports Numba (about a second): only here
     if compiled and reduced_kernel.supports(law, extra_torque, record_work):
         # the same algorithm in machine code (roboball.reduced.kernel), rows in parallel
         n_rows = None if row_durations is None else \
