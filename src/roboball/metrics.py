@@ -13,6 +13,28 @@ import numpy as np
 SPEED_FLOOR_RAD_S = 0.5
 
 
+# ---- quantiles of Student's t and chi-square --------------------------------------------------
+# scipy.stats costs about a second of import in every job that reads it; its t and chi2 ppf are
+# these special functions (times scale 1, plus loc 0), so the values are the same to the bit
+# (tests/metrics/test_quantiles.py).
+def t_quantile(p: float, dof: float) -> float:
+    """The p-quantile of Student's t with `dof` degrees of freedom (scipy.stats.t.ppf)."""
+    from scipy.special import stdtrit
+
+    return float(stdtrit(float(dof), p))
+
+
+def chi2_quantile(p, dof: float) -> np.ndarray:
+    """The p-quantiles (array) of chi-square with `dof` degrees of freedom (scipy.stats.chi2.ppf):
+    NaN where dof <= 0, as there."""
+    from scipy.special import gammaincinv
+
+    p = np.asarray(p, dtype=float)
+    if not dof > 0:
+        return np.full(p.shape, np.nan)
+    return 2 * gammaincinv(np.asarray(dof, dtype=float) / 2, p)
+
+
 # ---- ramp descents: eq. 12 ------------------------------------------------------------------
 def relative_errors(w_measured, w_sim, floor: float) -> np.ndarray:
     """Eq. 12's samples, (w_s - w_e) / w_e, at the samples whose measured speed reaches `floor`

@@ -28,10 +28,10 @@ from typing import Callable
 
 import numpy as np
 import pandas as pd
-from scipy import stats
 from scipy.optimize import least_squares, lsq_linear
 
 from roboball.errors import RoboballError
+from roboball.metrics import t_quantile
 
 Evaluator = Callable[[float, float], tuple[float, float]]
 # The damped-sine fit bounds zeta at 0.95 (roboball.identify.shell.damped_sine): a run at or
@@ -310,7 +310,7 @@ def volume_law(fits: pd.DataFrame, weight_n: float) -> dict:
     res = (lnv - a @ coef) * w
     s2 = float(res @ res / dof) if dof > 0 else 1.0
     cov = s2 * np.linalg.inv((a * w[:, None]).T @ (a * w[:, None]))
-    q = float(stats.t.ppf(0.975, max(dof, 1)))
+    q = t_quantile(0.975, max(dof, 1))
     k, k_se = float(coef[1]), float(math.sqrt(cov[1, 1]))
     v_ref, lnv_se = float(math.exp(coef[0])), float(math.sqrt(cov[0, 0]))
     return {"v_ref_m3": v_ref, "v_ref_ci95_low_m3": v_ref * math.exp(-q * lnv_se),

@@ -30,10 +30,10 @@ from typing import Callable, Sequence
 
 import numpy as np
 import pandas as pd
-from scipy import stats
 from scipy.optimize import brentq, least_squares
 
 from roboball.errors import RoboballError
+from roboball.metrics import chi2_quantile, t_quantile
 
 __all__ = [
     "RegressionFit",
@@ -75,7 +75,7 @@ class RegressionFit:
         return self.model(np.asarray(x, dtype=float), self.params)
 
     def t_quantile(self, level: float = 0.95) -> float:
-        return float(stats.t.ppf(0.5 + level / 2.0, max(self.dof, 1)))
+        return t_quantile(0.5 + level / 2.0, max(self.dof, 1))
 
     def value(self, name: str) -> float:
         return float(self.params[self.names.index(name)])
@@ -268,7 +268,7 @@ def between_release_sd_interval(fit: Callable[..., RegressionFit], p_kpa, y, se,
     """
     p_kpa, y, se = _clean(p_kpa, y, se, "between-release scatter")
     dof = len(y) - 2
-    hi_q, lo_q = stats.chi2.ppf([0.5 + level / 2.0, 0.5 - level / 2.0], dof)
+    hi_q, lo_q = chi2_quantile([0.5 + level / 2.0, 0.5 - level / 2.0], dof)
     return (math.sqrt(_solve_tau2(fit, p_kpa, y, se, float(hi_q))),
             math.sqrt(_solve_tau2(fit, p_kpa, y, se, float(lo_q))))
 
