@@ -162,15 +162,17 @@ def log_cost(r: dict | None, log: str) -> float:
     return sum((r[c] / TARGET_RAD[log]) ** 2 for c in ANGLES if c in r)
 
 
-def fit(cache: Cache, logs, names, fixed: dict, evals: int, label: str) -> dict:
-    """Nelder-Mead over `names` (from S0) on `logs`, the other parameters at `fixed`."""
-    start = s0()
+def fit(cache: Cache, logs, names, fixed: dict, evals: int, label: str, start: dict | None = None) -> dict:
+    """Nelder-Mead over `names` (from S0, or from `start` where it gives a value) on `logs`, the
+    other parameters at `fixed`."""
+    start = {**s0(), **(start or {})}
     x0 = np.zeros(len(names))
 
     def theta_of(x):
         th = dict(fixed)
         for xi, n in zip(x, names):
-            _, v0, step, (lo, hi), logscale = PARAMS[n]
+            _, _, step, (lo, hi), logscale = PARAMS[n]
+            v0 = start[n]
             v = v0 * np.exp(step * xi) if logscale else v0 + step * xi
             th[n] = float(np.clip(v, lo, hi))
         return th

@@ -1,0 +1,141 @@
+"""What the twin's shell law lacks on the real shell log: fitted to that log alone, and diagnosed.
+
+    .venv/bin/python benchmarks/testbed_shell_log.py [--evals-alone 150] [--evals-free 200] [--no-diagnose]
+
+Issue 46 asks the twin to predict the real shell log (`dynamic_data.csv`, one hand release with
+the pendulum free) to 0.01 rad held out; the joint calibration (`testbed_calibrate.py`) gets
+0.042 in sample and 0.065 held out, and docs/testbed.md read that as the repeats and the shell
+log pulling the shell law apart.  This asks the plainer question: how close does the law come
+to the shell log when nothing else pulls on it?
+
+* ``alone``: the bedliner's set tension and loss peak, the profile's excess, the imbalance and
+  the log's two unknowns (pressure, the pendulum's angle from plumb at the release) fitted to
+  the shell log alone (Nelder-Mead from the calibration's start S0, ``--evals-alone``
+  evaluations), the steer joint at the calibrated twin's values (truth.yaml ``real_robot``).
+* ``free``: from there with a freer steer joint (F_c = F_s = 0.45 N m, v_s 0.1 rad/s, viscous
+  0.2 N m s/rad, no rotor: Table I's scale), fitting F_c and the viscous term as well
+  (``--evals-free``).
+
+Then each fit's replay is diagnosed by the pipeline's own diagnosis (``roboball diagnose
+--steer-joint unknown``) beside the real log over the same span, so the two reports say in the
+contract's terms what the real shell does that the twin does not.  The replay starts at the
+let-go; the recording diagnosed is the real log's hold before it (moved by the few mrad to the
+twin's first sample) followed by the twin's samples, and the real log is cut where the replay
+ends (the finder's end of the free response).  Every Drake evaluation is cached with the
+calibration's (results/testbed_calibration/evaluations.jsonl).  An evaluation costs about 2 s of
+one core: 13 minutes from an empty cache, the two diagnoses and replays 45 s.
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import testbed_calibrate as T
+
+FREER_STEER = {"F_c": 0.45, "F_s": 0.45, "v_s": 0.1, "viscous": 0.2, "rotor": 0.0}
+NUISANCE = ("p_shell", "steer_offset_shell")
+
+
+def calibrated_steer() -> dict:
+    """The calibrated twin's steer parameters (truth.yaml real_robot)."""
+    real = T.load_truth(real=True)
+    out = {}
+    for n in T.STEER:
+        d = real
+        for k in T.PARAMS[n][0]:
+            d = d[k]
+        out[n] = float(d)
+    return out
+
+
+def fit_alone(cache, evals: int) -> dict:
+    return T.fit(cache, [T.SHELL], T.SHELL_LAW + NUISANCE, calibrated_steer(), evals, "alone")
+
+
+def fit_free(cache, alone: dict, evals: int) -> dict:
+    start = {**alone["theta"], **FREER_STEER}
+    names = ("F_c", "viscous") + T.SHELL_LAW + NUISANCE
+    fixed = {k: v for k, v in start.items() if k not in names}
+    return T.fit(cache, [T.SHELL], names, fixed, evals, "free", start=start)
+
+
+def recordings(theta: dict, folder: Path) -> tuple[Path, Path]:
+    """(the twin's recording, the real log cut at its end), both in the log's own format."""
+    from roboball.testbed.replay import replay
+
+    folder.mkdir(parents=True, exist_ok=True)
+    replay(T.REAL / f"{T.SHELL}.csv", folder / "replay.csv", truth=T.with_params(T.base_truth(), theta))
+    with (T.REAL / f"{T.SHELL}.csv").open() as fh:
+        real = list(csv.reader(fh))
+    with (folder / "replay.csv").open() as fh:
+        twin = list(csv.reader(fh))
+    header, rows, replayed = real[0], real[1:], twin[1:]
+    t0, t1 = int(replayed[0][0]), int(replayed[-1][0])
+    hold = [r for r in rows if int(r[0]) < t0]
+    shift = float(replayed[0][1]) - float(hold[-1][1])
+    paths = []
+    for name, body in (("twin", [[r[0], repr(float(r[1]) + shift), r[2]] for r in hold] + replayed),
+                       ("real", [r for r in rows if int(r[0]) <= t1])):
+        (folder / name).mkdir(exist_ok=True)
+        path = folder / name / f"{T.SHELL}.csv"          # the log's own name: the importer knows it
+        with path.open("w", newline="") as fh:
+            csv.writer(fh).writerows([header] + body)
+        paths.append(path)
+    return paths[0], paths[1]
+
+
+def diagnose(path: Path, out: Path) -> dict:
+    subprocess.run([sys.executable, "-m", "roboball.cli", "diagnose", str(path), "--steer-joint", "unknown",
+                    "--out", str(out)], check=True, capture_output=True, text=True)
+    return json.loads((out / "diagnosis.json").read_text())
+
+
+def summary(d: dict) -> str:
+    """The diagnosis in a line: its steer setting, the pendulum's state where the window starts,
+    the effects it names, its fitted RMS."""
+    base = d["baseline"]
+    free = "pendulum free" in base["description"]
+    state = base.get("refitted_with_effects") or base.get("fitted") or {}
+    pendulum = (f"pendulum free, {state.get('release_1_steer_angle_rad', float('nan')):+.2f} rad and "
+                f"{state.get('release_1_steer_rate_rad_s', float('nan')):+.2f} rad/s at the first turning point"
+                if free else "steer joint locked")
+    effects = ", ".join(f"{m['effect']} ({', '.join(f'{k} {v:.3g}' for k, v in m['parameters'].items())})"
+                        for m in d["missing_physics"]) or "nothing"
+    return f"RMS {d['fit']['rmse_after']:.4f} rad; {pendulum}; missing: {effects}"
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--evals-alone", type=int, default=150)
+    ap.add_argument("--evals-free", type=int, default=200)
+    ap.add_argument("--no-diagnose", action="store_true")
+    args = ap.parse_args()
+    if not (T.REAL / f"{T.SHELL}.csv").is_file():
+        print(f"the real shell log is not in {T.REAL}")
+        return 1
+    T.WORK.mkdir(parents=True, exist_ok=True)
+    cache = T.Cache(T.WORK / "evaluations.jsonl")
+    fits = {"alone": fit_alone(cache, args.evals_alone)}
+    fits["free"] = fit_free(cache, fits["alone"], args.evals_free)
+    for label, b in fits.items():
+        rms = T.rms_all(cache, b["theta"], [T.SHELL])[T.SHELL]
+        print(f"{label}: shell log RMS {rms['ball_roll.position']:.4f} rad; "
+              + ", ".join(f"{n} {v:.4g}" for n, v in b["theta"].items()))
+    if args.no_diagnose:
+        return 0
+    with tempfile.TemporaryDirectory() as tmp:
+        for label, b in fits.items():
+            twin, real = recordings(b["theta"], Path(tmp) / label)
+            if label == "alone":
+                print(f"real log, cut where the replay ends: {summary(diagnose(real, Path(tmp) / 'dx_real'))}")
+            print(f"twin ({label}) replay: {summary(diagnose(twin, Path(tmp) / f'dx_{label}'))}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
