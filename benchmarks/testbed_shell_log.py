@@ -89,6 +89,24 @@ def recordings(theta: dict, folder: Path) -> tuple[Path, Path]:
     return paths[0], paths[1]
 
 
+def pendulum(theta: dict) -> str:
+    """The twin's own pendulum (the log records none): its angle (rad, from the shell) and rate
+    (rad/s) at the shell's first turning point, its fastest before and after it."""
+    import numpy as np
+
+    from roboball.testbed.replay import free_pendulum_run, pressure_of, segments
+
+    log = T.log_of(T.SHELL)
+    truth = T.with_params(T.base_truth(), theta)
+    t = np.arange(0.0, 4.0, 0.002)
+    run = free_pendulum_run(truth, pressure_of(log, truth, None), t, segments(log)[0], theta["steer_offset_shell"])
+    q, s = run["pipe_angle_rad"], run["steer_angle_rad"]
+    rate = np.gradient(s, t)
+    k = int(np.argmax(q))
+    return (f"twin's pendulum at the shell's first turning point ({t[k]:.2f} s after the let-go): {s[k]:+.2f} rad, "
+            f"{rate[k]:+.2f} rad/s; fastest before {np.max(np.abs(rate[:k])):.2f}, after {np.max(np.abs(rate[k + 1:])):.2f} rad/s")
+
+
 def diagnose(path: Path, out: Path) -> dict:
     subprocess.run([sys.executable, "-m", "roboball.cli", "diagnose", str(path), "--steer-joint", "unknown",
                     "--out", str(out)], check=True, capture_output=True, text=True)
@@ -134,6 +152,7 @@ def main() -> int:
             if label == "alone":
                 print(f"real log, cut where the replay ends: {summary(diagnose(real, Path(tmp) / 'dx_real'))}")
             print(f"twin ({label}) replay: {summary(diagnose(twin, Path(tmp) / f'dx_{label}'))}")
+            print(f"  {pendulum(b['theta'])}")
     return 0
 
 

@@ -151,7 +151,7 @@ def pressure_of(log: RealLog, truth: dict, p_kpa: float | None) -> float | None:
     return float(p_kpa)
 
 
-def _free_pendulum_run(truth: dict, p_kpa: float, t: np.ndarray, seg: Segment, steer_offset: float = 0.0) -> dict:
+def free_pendulum_run(truth: dict, p_kpa: float, t: np.ndarray, seg: Segment, steer_offset: float = 0.0) -> dict:
     """The shell released with the pendulum free: both angles and the pipe rate at `t` (s,
     from the release).  `steer_offset` (rad): the log's unknown joint angle at the release,
     from plumb (a nuisance value of the calibration)."""
@@ -203,7 +203,7 @@ def simulate_log(log: RealLog, truth: dict, p_kpa: float | None = None) -> tuple
             df, _, _ = run_free("steer_stand", seg.y0, float(t_sim[-1]) + 1e-3, truth=truth)
             ts, run = df["time_s"].to_numpy(), {"pend_angle": df["steer_angle_rad"].to_numpy()}
         else:
-            r = _free_pendulum_run(truth, p, t_sim, seg, float(nuisance.get("steer_offset_rad", 0.0)))
+            r = free_pendulum_run(truth, p, t_sim, seg, float(nuisance.get("steer_offset_rad", 0.0)))
             ts, run = t_sim, {"ball_roll.position": r["pipe_angle_rad"]}
             if "ball_roll.velocity" in cols:
                 run["ball_roll.velocity"] = r["pipe_rate_rad_s"]
