@@ -86,6 +86,8 @@ PARAMS = {
     "p_coupled": (("logs", "steer_coupled", "pressure_kpa"), 9.5, 2.0, (4.0, 25.0), False),
     "p_shell": (("logs", "dynamic_data", "pressure_kpa"), 13.8, 2.0, (4.0, 25.0), False),
     "steer_offset_shell": (("logs", "dynamic_data", "steer_offset_rad"), 0.0, 0.1, (-0.6, 0.6), False),
+    # the flat's set pressure: held at SET_AT_KPA by the calibration (budget); testbed_shell_log frees it
+    "set_at": (("shell", "set_at_kpa"), 8.5, 2.0, (3.0, 25.0), False),
 }
 STEER = ("F_c", "F_s", "v_s", "viscous", "rotor")
 SHELL_LAW = ("set_tension", "loss_peak", "excess", "imbalance")

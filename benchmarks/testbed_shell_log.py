@@ -15,6 +15,8 @@ to the shell log when nothing else pulls on it?
 * ``free``: from there with a freer steer joint (F_c = F_s = 0.45 N m, v_s 0.1 rad/s, viscous
   0.2 N m s/rad, no rotor: Table I's scale), fitting F_c and the viscous term as well
   (``--evals-free``).
+* ``set_at``: from there, the flat's set pressure (held at 8.5 kPa by the calibration) fitted
+  with the law and the unknowns (``--evals-set-at``).
 
 Then each fit's replay is diagnosed by the pipeline's own diagnosis (``roboball diagnose
 --steer-joint unknown``) beside the real log over the same span, so the two reports say in the
@@ -23,7 +25,7 @@ let-go; the recording diagnosed is the real log's hold before it (moved by the f
 twin's first sample) followed by the twin's samples, and the real log is cut where the replay
 ends (the finder's end of the free response).  Every Drake evaluation is cached with the
 calibration's (results/testbed_calibration/evaluations.jsonl).  An evaluation costs about 2 s of
-one core: 13 minutes from an empty cache, the two diagnoses and replays 45 s.
+one core: 18 minutes from an empty cache, the diagnoses and replays of the first two fits 45 s.
 """
 from __future__ import annotations
 
@@ -62,6 +64,14 @@ def fit_free(cache, alone: dict, evals: int) -> dict:
     names = ("F_c", "viscous") + T.SHELL_LAW + NUISANCE
     fixed = {k: v for k, v in start.items() if k not in names}
     return T.fit(cache, [T.SHELL], names, fixed, evals, "free", start=start)
+
+
+def fit_set_at(cache, free: dict, evals: int) -> dict:
+    """From the freed fit, the flat's set pressure fitted with the law and the unknowns."""
+    start = {**free["theta"], "set_at": T.SET_AT_KPA}
+    names = ("set_at",) + T.SHELL_LAW + NUISANCE
+    fixed = {k: v for k, v in start.items() if k not in names}
+    return T.fit(cache, [T.SHELL], names, fixed, evals, "set_at", start=start)
 
 
 def recordings(theta: dict, folder: Path) -> tuple[Path, Path]:
@@ -131,6 +141,7 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--evals-alone", type=int, default=150)
     ap.add_argument("--evals-free", type=int, default=200)
+    ap.add_argument("--evals-set-at", type=int, default=150)
     ap.add_argument("--no-diagnose", action="store_true")
     args = ap.parse_args()
     if not (T.REAL / f"{T.SHELL}.csv").is_file():
@@ -140,6 +151,7 @@ def main() -> int:
     cache = T.Cache(T.WORK / "evaluations.jsonl")
     fits = {"alone": fit_alone(cache, args.evals_alone)}
     fits["free"] = fit_free(cache, fits["alone"], args.evals_free)
+    fits["set_at"] = fit_set_at(cache, fits["free"], args.evals_set_at)
     for label, b in fits.items():
         rms = T.rms_all(cache, b["theta"], [T.SHELL])[T.SHELL]
         print(f"{label}: shell log RMS {rms['ball_roll.position']:.4f} rad; "
@@ -147,7 +159,7 @@ def main() -> int:
     if args.no_diagnose:
         return 0
     with tempfile.TemporaryDirectory() as tmp:
-        for label, b in fits.items():
+        for label, b in ((k, fits[k]) for k in ("alone", "free")):
             twin, real = recordings(b["theta"], Path(tmp) / label)
             if label == "alone":
                 print(f"real log, cut where the replay ends: {summary(diagnose(real, Path(tmp) / 'dx_real'))}")
