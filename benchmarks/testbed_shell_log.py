@@ -1,6 +1,7 @@
 """What the twin's shell law lacks on the real shell log: fitted to that log alone, and diagnosed.
 
-    .venv/bin/python benchmarks/testbed_shell_log.py [--evals-alone 150] [--evals-free 200] [--no-diagnose]
+    .venv/bin/python benchmarks/testbed_shell_log.py [--evals-alone 150] [--evals-free 200] [--evals-set-at 150]
+                                                     [--probe EVALS] [--no-diagnose]
 
 Issue 46 asks the twin to predict the real shell log (`dynamic_data.csv`, one hand release with
 the pendulum free) to 0.01 rad held out; the joint calibration (`testbed_calibrate.py`) gets
@@ -17,6 +18,9 @@ to the shell log when nothing else pulls on it?
   (``--evals-free``).
 * ``set_at``: from there, the flat's set pressure (held at 8.5 kPa by the calibration) fitted
   with the law and the unknowns (``--evals-set-at``).
+* ``--probe EVALS`` (off by default): not the twin, a probe: the freed fit plus the diagnosis's
+  own forms of the two shell terms it names on the real log beyond stiffness and drag (a
+  constant rolling loss and a softening cubic about the rest), refitted with the law.
 
 Then each fit's replay is diagnosed by the pipeline's own diagnosis (``roboball diagnose
 --steer-joint unknown``) beside the real log over the same span, so the two reports say in the
@@ -72,6 +76,38 @@ def fit_set_at(cache, free: dict, evals: int) -> dict:
     names = ("set_at",) + T.SHELL_LAW + NUISANCE
     fixed = {k: v for k, v in start.items() if k not in names}
     return T.fit(cache, [T.SHELL], names, fixed, evals, "set_at", start=start)
+
+
+def fit_probe(cache, free: dict, evals: int) -> dict:
+    """A probe, not the twin: the freed fit plus the two shell terms the real log's diagnosis
+    names beyond stiffness and drag, in the diagnosis's own forms (a constant rolling loss and a
+    softening cubic about the rest, roboball.testbed.effects.conceal as the blind benchmark
+    hides them), refitted with the law and the unknowns.  How much of the gap they close."""
+    import roboball.testbed.run as run
+    from roboball.testbed.effects import conceal
+    from roboball.testbed.physics import true_robot
+
+    plain = run.truth_spec
+
+    def with_probe(kind, p_kpa, truth, *args, **kw):
+        probe = truth.get("probe", {})
+        if kind == "shell_rock" and probe:
+            effects = {"rolling_resistance": {"tau_rr": probe["tau_rr"]}, "cubic_stiffness": {"k3": probe["k3"]}}
+            terms, systems, _ = conceal("shell_rock", effects, true_robot(truth, perturbed=True))
+            kw["extra_terms"] = tuple(kw.get("extra_terms", ())) + tuple(terms)
+            kw["extra_systems"] = tuple(kw.get("extra_systems", ())) + tuple(systems)
+        return plain(kind, p_kpa, truth, *args, **kw)
+
+    T.PARAMS["tau_rr"] = (("probe", "tau_rr"), 1.8, 0.8, (0.0, 6.0), False)
+    T.PARAMS["k3"] = (("probe", "k3"), -100.0, 60.0, (-400.0, 0.0), False)
+    start = {**free["theta"], "tau_rr": 1.8, "k3": -100.0}
+    names = ("tau_rr", "k3") + T.SHELL_LAW + NUISANCE
+    fixed = {k: v for k, v in start.items() if k not in names}
+    run.truth_spec = with_probe
+    try:
+        return T.fit(cache, [T.SHELL], names, fixed, evals, "probe", start=start)
+    finally:
+        run.truth_spec = plain
 
 
 def recordings(theta: dict, folder: Path) -> tuple[Path, Path]:
@@ -143,6 +179,8 @@ def main() -> int:
     ap.add_argument("--evals-free", type=int, default=200)
     ap.add_argument("--evals-set-at", type=int, default=150)
     ap.add_argument("--no-diagnose", action="store_true")
+    ap.add_argument("--probe", type=int, default=0, metavar="EVALS",
+                    help="also the probe with the diagnosis's rolling loss and softening cubic (fit_probe), EVALS evaluations")
     args = ap.parse_args()
     if not (T.REAL / f"{T.SHELL}.csv").is_file():
         print(f"the real shell log is not in {T.REAL}")
@@ -152,6 +190,11 @@ def main() -> int:
     fits = {"alone": fit_alone(cache, args.evals_alone)}
     fits["free"] = fit_free(cache, fits["alone"], args.evals_free)
     fits["set_at"] = fit_set_at(cache, fits["free"], args.evals_set_at)
+    if args.probe:
+        probe = fit_probe(cache, fits["free"], args.probe)
+        rms = T.rms_all(cache, probe["theta"], [T.SHELL])[T.SHELL]     # evaluated in the fit: cached
+        print(f"probe: shell log RMS {rms['ball_roll.position']:.4f} rad; "
+              + ", ".join(f"{n} {v:.4g}" for n, v in probe["theta"].items()))
     for label, b in fits.items():
         rms = T.rms_all(cache, b["theta"], [T.SHELL])[T.SHELL]
         print(f"{label}: shell log RMS {rms['ball_roll.position']:.4f} rad; "
