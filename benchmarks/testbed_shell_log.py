@@ -22,7 +22,9 @@ to the shell log when nothing else pulls on it?
   own forms of the two shell terms it names on the real log beyond stiffness and drag (a
   constant rolling loss and a softening cubic about the rest), refitted with the law.
 
-Then each fit's replay is diagnosed by the pipeline's own diagnosis (``roboball diagnose
+Beside them, the coupled repeats, where the joint is recorded: how long the real and the
+calibrated twin's pendulum stay nearly still after their first swing.  Then each fit's replay is
+diagnosed by the pipeline's own diagnosis (``roboball diagnose
 --steer-joint unknown``) beside the real log over the same span, so the two reports say in the
 contract's terms what the real shell does that the twin does not.  The replay starts at the
 let-go; the recording diagnosed is the real log's hold before it (moved by the few mrad to the
@@ -153,6 +155,42 @@ def pendulum(theta: dict) -> str:
             f"{rate[k]:+.2f} rad/s; fastest before {np.max(np.abs(rate[:k])):.2f}, after {np.max(np.abs(rate[k + 1:])):.2f} rad/s")
 
 
+def still_s(t, y, below: float = 0.25, window=(0.6, 2.5)) -> float:
+    """The longest time (s) in `window` (s from the let-go) the joint angle `y` moves slower than
+    `below` rad/s (the recorded angle averaged over 5 samples first: 1 mrad steps at 50 Hz)."""
+    import numpy as np
+
+    y = np.convolve(y, np.ones(5) / 5, mode="same")
+    slow = (t > window[0]) & (t < window[1]) & (np.abs(np.gradient(y, t)) < below)
+    best, k = 0.0, 0
+    while k < t.size:
+        if slow[k]:
+            j = k
+            while j + 1 < t.size and slow[j + 1]:
+                j += 1
+            best = max(best, float(t[j] - t[k]))
+            k = j + 1
+        else:
+            k += 1
+    return best
+
+
+def repeats_pendulum(folder: Path) -> str:
+    """How long the real and the calibrated twin's pendulum stay nearly still after their first
+    swing in each coupled repeat (the joint is recorded there): `roboball-testbed replay`."""
+    from roboball.testbed.replay import read_log, replay
+
+    out = []
+    for name in T.COUPLED:
+        real = read_log(T.REAL / f"{name}.csv")
+        replay(T.REAL / f"{name}.csv", folder / f"{name}.csv")
+        twin = read_log(folder / f"{name}.csv")
+        col = "roll_joint.position"
+        out.append(f"{name[-6:]} real {still_s(real.t - real.t[0], real.values[col]):.2f} s, "
+                   f"twin {still_s(twin.t - real.t[0], twin.values[col]):.2f} s")
+    return "coupled repeats, pendulum nearly still after its first swing: " + "; ".join(out)
+
+
 def diagnose(path: Path, out: Path) -> dict:
     subprocess.run([sys.executable, "-m", "roboball.cli", "diagnose", str(path), "--steer-joint", "unknown",
                     "--out", str(out)], check=True, capture_output=True, text=True)
@@ -202,6 +240,7 @@ def main() -> int:
     if args.no_diagnose:
         return 0
     with tempfile.TemporaryDirectory() as tmp:
+        print(repeats_pendulum(Path(tmp)))
         for label, b in ((k, fits[k]) for k in ("alone", "free")):
             twin, real = recordings(b["theta"], Path(tmp) / label)
             if label == "alone":
