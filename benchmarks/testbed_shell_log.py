@@ -72,6 +72,19 @@ def fit_free(cache, alone: dict, evals: int) -> dict:
     return T.fit(cache, [T.SHELL], names, fixed, evals, "free", start=start)
 
 
+def error_split(theta: dict) -> str:
+    """The fit's RMS before and after the real shell's first turning point, and the share of its
+    squared error that falls before it (the let-go and the first half-swing)."""
+    import numpy as np
+
+    log = T.log_of(T.SHELL)
+    rows, pred = T.simulate_log(log, T.with_params(T.base_truth(), theta))
+    e = pred["ball_roll.position"] - log.values["ball_roll.position"][rows]
+    k = int(np.argmax(log.values["ball_roll.position"][rows])) + 1
+    return (f"before the first turning point {np.sqrt(np.mean(e[:k] ** 2)):.4f} rad "
+            f"({100 * np.sum(e[:k] ** 2) / np.sum(e ** 2):.0f}% of the squared error), after {np.sqrt(np.mean(e[k:] ** 2)):.4f}")
+
+
 def fit_set_at(cache, free: dict, evals: int) -> dict:
     """From the freed fit, the flat's set pressure fitted with the law and the unknowns."""
     start = {**free["theta"], "set_at": T.SET_AT_KPA}
@@ -237,6 +250,7 @@ def main() -> int:
         rms = T.rms_all(cache, b["theta"], [T.SHELL])[T.SHELL]
         print(f"{label}: shell log RMS {rms['ball_roll.position']:.4f} rad; "
               + ", ".join(f"{n} {v:.4g}" for n, v in b["theta"].items()))
+        print(f"  {error_split(b['theta'])}")
     if args.no_diagnose:
         return 0
     with tempfile.TemporaryDirectory() as tmp:
