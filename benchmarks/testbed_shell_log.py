@@ -85,6 +85,34 @@ def error_split(theta: dict) -> str:
             f"({100 * np.sum(e[:k] ** 2) / np.sum(e ** 2):.0f}% of the squared error), after {np.sqrt(np.mean(e[k:] ** 2)):.4f}")
 
 
+def turning_points(t, y, after: float = 0.5, min_amp: float = 0.02) -> list:
+    """(time s, angle rad) of each turning point after `after` s (7-sample average; one per 0.2 s;
+    those within `min_amp` of the last value left out)."""
+    import numpy as np
+
+    ys = np.convolve(y, np.ones(7) / 7, mode="same")
+    d = np.gradient(ys, t)
+    flips = np.nonzero((np.sign(d[1:]) != np.sign(d[:-1])) & (t[1:] > after) & (t[1:] < t[-1] - 0.1))[0] + 1
+    out = []
+    for i in flips:
+        if not out or t[i] - out[-1][0] >= 0.2:
+            out.append((float(t[i]), float(ys[i])))
+    return [(a, b) for a, b in out if abs(b - ys[-1]) > min_amp]
+
+
+def swings(theta: dict) -> str:
+    """The real shell's and the fit's turning points and half-periods after the let-go."""
+    log = T.log_of(T.SHELL)
+    rows, pred = T.simulate_log(log, T.with_params(T.base_truth(), theta))
+    t = log.t[rows] - log.t[rows][0]
+    out = []
+    for name, y in (("real", log.values["ball_roll.position"][rows]), ("twin", pred["ball_roll.position"])):
+        tp = turning_points(t, y)
+        half = ", ".join(f"{b[0] - a[0]:.2f}" for a, b in zip(tp, tp[1:]))
+        out.append(f"{name}: turning at " + ", ".join(f"{a:.2f} s ({b:+.3f})" for a, b in tp) + f"; half-periods {half} s")
+    return "; ".join(out)
+
+
 def fit_set_at(cache, free: dict, evals: int) -> dict:
     """From the freed fit, the flat's set pressure fitted with the law and the unknowns."""
     start = {**free["theta"], "set_at": T.SET_AT_KPA}
@@ -251,6 +279,7 @@ def main() -> int:
         print(f"{label}: shell log RMS {rms['ball_roll.position']:.4f} rad; "
               + ", ".join(f"{n} {v:.4g}" for n, v in b["theta"].items()))
         print(f"  {error_split(b['theta'])}")
+        print(f"  {swings(b['theta'])}")
     if args.no_diagnose:
         return 0
     with tempfile.TemporaryDirectory() as tmp:
