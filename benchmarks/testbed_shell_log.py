@@ -113,6 +113,19 @@ def swings(theta: dict) -> str:
     return "; ".join(out)
 
 
+def flat_sweep(cache, theta: dict) -> list[str]:
+    """The freed fit with a stiffer or softer flat (set tension, pressure): its RMS and the
+    half-periods of its swings, beside the real shell's."""
+    out = []
+    for over in ({"set_tension": 8000.0}, {"set_tension": 20000.0}, {"p_shell": 4.0}, {"p_shell": 15.0},
+                 {"set_tension": 20000.0, "p_shell": 4.0}):
+        th = {**theta, **over}
+        rms = T.rms_all(cache, th, [T.SHELL])[T.SHELL]["ball_roll.position"]
+        out.append(", ".join(f"{k} {v:g}" for k, v in over.items()) + f": RMS {rms:.4f} rad; "
+                   + swings(th).split("; ", 2)[2])
+    return out
+
+
 def fit_set_at(cache, free: dict, evals: int) -> dict:
     """From the freed fit, the flat's set pressure fitted with the law and the unknowns."""
     start = {**free["theta"], "set_at": T.SET_AT_KPA}
@@ -280,6 +293,9 @@ def main() -> int:
               + ", ".join(f"{n} {v:.4g}" for n, v in b["theta"].items()))
         print(f"  {error_split(b['theta'])}")
         print(f"  {swings(b['theta'])}")
+    print("the freed fit with another flat:")
+    for line in flat_sweep(cache, fits["free"]["theta"]):
+        print(f"  {line}")
     if args.no_diagnose:
         return 0
     with tempfile.TemporaryDirectory() as tmp:
