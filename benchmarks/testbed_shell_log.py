@@ -126,6 +126,30 @@ def flat_sweep(cache, theta: dict) -> list[str]:
     return out
 
 
+def clamped_and_free(theta: dict) -> list[str]:
+    """The freed fit's twin let go 0.3 rad from its rest, with the pendulum clamped and free
+    (hanging at the let-go): the half-periods of its swings, beside the real shell's."""
+    import numpy as np
+
+    from roboball.testbed.physics import true_robot
+    from roboball.testbed.run import coupled_release, run_free
+
+    truth = T.with_params(T.base_truth(), theta)
+    p, rest = theta["p_shell"], true_robot(truth).shell_rest_angle
+    t = np.linspace(0.0, 5.0, 2501)
+    out = []
+    for label in ("clamped", "free"):
+        if label == "clamped":
+            df, _, _ = run_free("shell_rock", rest + 0.3, 5.0, p, truth)
+            tt, y = df["time_s"].to_numpy(), df["pipe_angle_rad"].to_numpy()
+        else:
+            tt, y = t, coupled_release(p, t, rest + 0.3, -(rest + 0.3), None, truth=truth)["pipe_angle_rad"]
+        tp = [(0.0, 0.3 + rest)] + turning_points(tt, y, after=0.05)
+        out.append(f"{label}: half-periods " + ", ".join(f"{b[0] - a[0]:.2f}" for a, b in zip(tp, tp[1:]))
+                   + " s (turning at " + ", ".join(f"{b - rest:+.3f}" for _, b in tp[1:]) + " rad from rest)")
+    return out
+
+
 def fit_set_at(cache, free: dict, evals: int) -> dict:
     """From the freed fit, the flat's set pressure fitted with the law and the unknowns."""
     start = {**free["theta"], "set_at": T.SET_AT_KPA}
@@ -295,6 +319,9 @@ def main() -> int:
         print(f"  {swings(b['theta'])}")
     print("the freed fit with another flat:")
     for line in flat_sweep(cache, fits["free"]["theta"]):
+        print(f"  {line}")
+    print("the freed fit's twin let go 0.3 rad from its rest:")
+    for line in clamped_and_free(fits["free"]["theta"]):
         print(f"  {line}")
     if args.no_diagnose:
         return 0
