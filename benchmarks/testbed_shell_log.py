@@ -31,7 +31,7 @@ let-go; the recording diagnosed is the real log's hold before it (moved by the f
 twin's first sample) followed by the twin's samples, and the real log is cut where the replay
 ends (the finder's end of the free response).  Every Drake evaluation is cached with the
 calibration's (results/testbed_calibration/evaluations.jsonl).  An evaluation costs about 2 s of
-one core: 18 minutes from an empty cache, the diagnoses and replays of the first two fits 45 s.
+one core: 18 minutes from an empty cache, the sweeps, replays and diagnoses after the fits 1.5 min.
 """
 from __future__ import annotations
 
