@@ -85,19 +85,14 @@ def error_split(theta: dict) -> str:
             f"({100 * np.sum(e[:k] ** 2) / np.sum(e ** 2):.0f}% of the squared error), after {np.sqrt(np.mean(e[k:] ** 2)):.4f}")
 
 
-def turning_points(t, y, after: float = 0.5, min_amp: float = 0.02) -> list:
-    """(time s, angle rad) of each turning point after `after` s (7-sample average; one per 0.2 s;
-    those within `min_amp` of the last value left out)."""
-    import numpy as np
+def turning_points(t, y, after: float = 0.5, h: float = 0.02) -> list:
+    """(time s, angle rad) of each turning point after `after` s: the release finder's own
+    alternating extrema (roboball.ingest.releases.signal.zigzag), a turn confirmed once the
+    angle has come back by more than `h` rad; the record's last sample, where it is cut, is no
+    turn."""
+    from roboball.ingest.releases.signal import zigzag
 
-    ys = np.convolve(y, np.ones(7) / 7, mode="same")
-    d = np.gradient(ys, t)
-    flips = np.nonzero((np.sign(d[1:]) != np.sign(d[:-1])) & (t[1:] > after) & (t[1:] < t[-1] - 0.1))[0] + 1
-    out = []
-    for i in flips:
-        if not out or t[i] - out[-1][0] >= 0.2:
-            out.append((float(t[i]), float(ys[i])))
-    return [(a, b) for a, b in out if abs(b - ys[-1]) > min_amp]
+    return [(float(t[i]), float(y[i])) for i in zigzag(y, h) if after < t[i] and i < len(y) - 1]
 
 
 def swings(theta: dict) -> str:
