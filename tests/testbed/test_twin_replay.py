@@ -142,3 +142,21 @@ def test_the_docs_table_is_the_calibrations():
             stated = [float(x) for x in re.findall(r"\d+\.\d+", cell)]
             want = [entry[key][c] for c in ("pend_angle", "ball_roll.position", "roll_joint.position") if c in entry[key]]
             assert stated == pytest.approx(want, abs=5e-4), (label, key, stated, want)
+
+
+def test_the_shell_logs_pendulum_rate_at_the_let_go_is_a_nuisance_value_the_replay_takes():
+    """A rate in the log's nuisance values starts the pendulum moving at the let-go (the joint
+    moves at that rate at first); without one it hangs still, as the calibrated twin has it."""
+    import numpy as np
+    from roboball.testbed.physics import load_truth
+    from roboball.testbed.replay import Segment, free_pendulum_run
+    truth = load_truth(real=True)
+    assert "steer_rate_rad_s" not in truth["logs"]["dynamic_data"]
+    t = np.linspace(0.0, 0.02, 11)
+    seg = Segment(np.arange(t.size), -0.4)
+    still = free_pendulum_run(truth, 8.0, t, seg, 0.2)
+    moving = free_pendulum_run(truth, 8.0, t, seg, 0.2, steer_rate=-2.5)
+    assert still["steer_angle_rad"][0] == moving["steer_angle_rad"][0] == pytest.approx(0.4 + 0.2)
+    # the rate at t = 0: the linear term of a quadratic (gravity accelerates both alike)
+    assert np.polyfit(t, still["steer_angle_rad"], 2)[1] == pytest.approx(0.0, abs=0.02)
+    assert np.polyfit(t, moving["steer_angle_rad"], 2)[1] == pytest.approx(-2.5, abs=0.1)

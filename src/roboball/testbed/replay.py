@@ -22,7 +22,8 @@ releases the twin is let go at the finder's instant shifted by the delay (-0.1 t
 grid) that fits that free response best, held still before it.  The shell's pressure is the
 log's calibrated nuisance value (truth.yaml `real_robot.logs`)
 unless `--pressure-kpa` gives one; so is the shell log's pendulum angle at its release (its
-offset from plumb; the log does not record the joint).  A bad log is refused with a one-line error naming the file
+offset from plumb; the log does not record the joint) and, where the nuisance values give one,
+its rate there (`steer_rate_rad_s`; none in the calibrated twin: it hangs still).  A bad log is refused with a one-line error naming the file
 and what is wrong, and no output is written (the CSV is written atomically).
 """
 from __future__ import annotations
@@ -151,10 +152,12 @@ def pressure_of(log: RealLog, truth: dict, p_kpa: float | None) -> float | None:
     return float(p_kpa)
 
 
-def free_pendulum_run(truth: dict, p_kpa: float, t: np.ndarray, seg: Segment, steer_offset: float = 0.0) -> dict:
+def free_pendulum_run(truth: dict, p_kpa: float, t: np.ndarray, seg: Segment, steer_offset: float = 0.0,
+                      steer_rate: float = 0.0) -> dict:
     """The shell released with the pendulum free: both angles and the pipe rate at `t` (s,
     from the release).  `steer_offset` (rad): the log's unknown joint angle at the release,
-    from plumb (a nuisance value of the calibration)."""
+    from plumb, and `steer_rate` (rad/s) its rate there (nuisance values of the calibration;
+    a segment's own state, where it has one, comes first)."""
     import dataclasses
 
     from roboball.sim.scenarios import simulate
@@ -165,8 +168,11 @@ def free_pendulum_run(truth: dict, p_kpa: float, t: np.ndarray, seg: Segment, st
     # the pendulum hangs plumb while the hand holds the shell (the coupled repeats: pipe -0.36,
     # joint +0.39), unless the segment knows its joint angle
     steer0 = seg.steer0 if seg.steer0 is not None else -seg.y0 + steer_offset
+    rates0 = seg.rates0
+    if rates0 is None and steer_rate != 0.0:
+        rates0 = {"pipe_rate": 0.0, "steer_rate": float(steer_rate)}
     df = simulate(spec, seg.y0, float(t[-1]) + 2 * spec.dt, sample_rate_hz=SIM_RATE_HZ, steer0=steer0,
-                  rates0=seg.rates0)
+                  rates0=rates0)
     ts = df["time_s"].to_numpy()
     return {c: np.interp(t, ts, df[c].to_numpy()) for c in ("pipe_angle_rad", "steer_angle_rad", "pipe_rate_rad_s")}
 
@@ -203,7 +209,8 @@ def simulate_log(log: RealLog, truth: dict, p_kpa: float | None = None) -> tuple
             df, _, _ = run_free("steer_stand", seg.y0, float(t_sim[-1]) + 1e-3, truth=truth)
             ts, run = df["time_s"].to_numpy(), {"pend_angle": df["steer_angle_rad"].to_numpy()}
         else:
-            r = free_pendulum_run(truth, p, t_sim, seg, float(nuisance.get("steer_offset_rad", 0.0)))
+            r = free_pendulum_run(truth, p, t_sim, seg, float(nuisance.get("steer_offset_rad", 0.0)),
+                                  float(nuisance.get("steer_rate_rad_s", 0.0)))
             ts, run = t_sim, {"ball_roll.position": r["pipe_angle_rad"]}
             if "ball_roll.velocity" in cols:
                 run["ball_roll.velocity"] = r["pipe_rate_rad_s"]
