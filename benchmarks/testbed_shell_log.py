@@ -1,7 +1,8 @@
 """What the twin's shell law lacks on the real shell log: fitted to that log alone, and diagnosed.
 
     .venv/bin/python benchmarks/testbed_shell_log.py [--evals-alone 150] [--evals-free 200] [--evals-set-at 150]
-                                                     [--probe EVALS] [--no-diagnose]
+                                                     [--probe EVALS] [--clamped EVALS] [--stiction EVALS]
+                                                     [--driven EVALS] [--no-diagnose]
 
 Issue 46 asks the twin to predict the real shell log (`dynamic_data.csv`, one hand release with
 the pendulum free) to 0.01 rad held out; the joint calibration (`testbed_calibrate.py`) gets
@@ -21,6 +22,15 @@ to the shell log when nothing else pulls on it?
 * ``--probe EVALS`` (off by default): not the twin, a probe: the freed fit plus the diagnosis's
   own forms of the two shell terms it names on the real log beyond stiffness and drag (a
   constant rolling loss and a softening cubic about the rest), refitted with the law.
+* ``--clamped EVALS``: the log replayed with the steer joint clamped, the law and the pressure
+  fitted; ``--stiction EVALS``: from the freed fit, a joint that sticks (F_s, F_c, v_s fitted).
+* ``--driven EVALS``: the pendulum let go swinging: its angle and rate at the let-go over a grid,
+  then fitted with the law and the pressure (the freed fit's joint), with the joint as well, and
+  with the stand's calibrated joint; for each, the swing a pendulum let go at rest would need to
+  be in that state at the shell's let-go (``swing_before``).
+
+Whatever the options, what the recorded joints say of the joint's hold near rest (the stand's
+stops, the coupled repeats' slow creeps under gravity: ``joint_holds``) is printed too.
 
 Beside them, the coupled repeats, where the joint is recorded: how long the real and the
 calibrated twin's pendulum stay nearly still after their first swing.  Then each fit's replay is
@@ -46,6 +56,9 @@ from pathlib import Path
 import testbed_calibrate as T
 
 FREER_STEER = {"F_c": 0.45, "F_s": 0.45, "v_s": 0.1, "viscous": 0.2, "rotor": 0.0}
+# the shell log's pendulum rate at the let-go (rad/s), a nuisance value the replay takes
+# (roboball.testbed.replay); not one the calibration fits
+T.PARAMS["steer_rate_shell"] = (("logs", T.SHELL, "steer_rate_rad_s"), 0.0, 1.0, (-6.0, 6.0), False)
 NUISANCE = ("p_shell", "steer_offset_shell")
 
 
@@ -185,6 +198,193 @@ def fit_probe(cache, free: dict, evals: int) -> dict:
         run.truth_spec = plain
 
 
+def fit_clamped(cache, alone: dict, evals: int) -> dict:
+    """A probe: the shell log replayed with the steer joint clamped (the log does not say it was
+    free), the law and the pressure fitted from the first fit's values."""
+    import numpy as np
+
+    import roboball.testbed.replay as replay
+    from roboball.testbed.run import run_free
+
+    plain = replay.free_pendulum_run
+
+    def maybe_clamped(truth, p_kpa, t, seg, steer_offset=0.0, steer_rate=0.0):
+        if not truth.get("logs", {}).get(T.SHELL, {}).get("clamped"):
+            return plain(truth, p_kpa, t, seg, steer_offset, steer_rate)
+        df, _, _ = run_free("shell_rock", seg.y0, float(t[-1]) + 2e-3, p_kpa, truth)
+        ts, y = df["time_s"].to_numpy(), df["pipe_angle_rad"].to_numpy()
+        return {"pipe_angle_rad": np.interp(t, ts, y), "steer_angle_rad": np.zeros_like(t),
+                "pipe_rate_rad_s": np.interp(t, ts, np.gradient(y, ts))}
+
+    T.PARAMS["clamped"] = (("logs", T.SHELL, "clamped"), 1.0, 0.0, (1.0, 1.0), False)
+    start = {**alone["theta"], "clamped": 1.0}
+    names = T.SHELL_LAW + ("p_shell",)
+    replay.free_pendulum_run = maybe_clamped
+    try:
+        return T.fit(cache, [T.SHELL], names, {k: v for k, v in start.items() if k not in names}, evals,
+                     "clamped", start=start)
+    finally:
+        replay.free_pendulum_run = plain
+
+
+def fit_stiction(cache, free: dict, evals: int) -> dict:
+    """A probe: from the freed fit, a steer joint that sticks (F_s 1.5 N m, v_s 0.05 rad/s to
+    start), its F_s, F_c and v_s fitted with the law and the log's unknowns."""
+    start = {**free["theta"], "F_s": 1.5, "v_s": 0.05}
+    names = ("F_s", "F_c", "v_s") + T.SHELL_LAW + NUISANCE
+    return T.fit(cache, [T.SHELL], names, {k: v for k, v in start.items() if k not in names}, evals, "stick",
+                 start=start)
+
+
+def state_grid(cache, theta: dict) -> tuple[list[str], dict]:
+    """The pendulum's angle from plumb (rad) and rate (rad/s) at the let-go over a grid, the rest
+    of `theta` fixed: the shell log's RMS at each, and the best cell."""
+    import numpy as np
+
+    lines, best = [], (np.inf, None)
+    rates = np.arange(-5.0, 0.01, 0.5)
+    for off in np.arange(-0.2, 0.51, 0.1):
+        row = []
+        for w in rates:
+            th = {**theta, "steer_offset_shell": round(float(off), 3), "steer_rate_shell": float(w)}
+            r = T.rms_all(cache, th, [T.SHELL])[T.SHELL]
+            row.append(r["ball_roll.position"] if r else float("nan"))
+            if row[-1] < best[0]:
+                best = (row[-1], th)
+        lines.append(f"angle {off:+.1f} rad: " + " ".join(f"{v:.3f}" for v in row))
+    return [f"rate (rad/s) {rates[0]:g} to {rates[-1]:g} by 0.5 across"] + lines, best[1]
+
+
+def fit_driven(cache, start: dict, evals: int, joint: bool) -> dict:
+    """From `start`, the pendulum's angle and rate at the let-go fitted with the law and the
+    pressure (a pendulum let go moving: something drove it); with `joint`, the steer joint's
+    F_c, F_s, viscous term and rotor as well."""
+    names = ("steer_offset_shell", "steer_rate_shell") + T.SHELL_LAW + ("p_shell",)
+    if joint:
+        names = ("F_c", "F_s", "viscous", "rotor") + names
+    fixed = {k: v for k, v in start.items() if k not in names}
+    return T.fit(cache, [T.SHELL], names, fixed, evals, "driven_joint" if joint else "driven", start=start)
+
+
+def swing_before(theta: dict) -> str:
+    """Where a pendulum let go at rest comes from if it has the fitted state at the shell's
+    let-go: the angle from plumb its energy there reaches (with no friction), and the twin's
+    stand (the pipe held, the fit's joint) let go at rest from there: how long before it passes
+    the fitted angle, and at what rate."""
+    import numpy as np
+
+    from roboball.config import load_robot
+    from roboball.testbed.effects import rest_angle
+    from roboball.testbed.replay import segments
+    from roboball.testbed.run import run_free
+
+    robot = load_robot()
+    pend = robot.links["pendulum"]
+    mgd = pend.mass_kg * 9.81 * float(np.hypot(pend.com_m[1], pend.com_m[2]))
+    arm2 = pend.com_m[1] ** 2 + pend.com_m[2] ** 2
+    inertia = pend.inertia_kg_m2[0] + pend.mass_kg * arm2 + theta.get("rotor", 0.0)   # about the joint, with the rotor
+    plumb = rest_angle("steer_stand", robot)
+    off, rate = theta["steer_offset_shell"], theta["steer_rate_shell"]
+    energy = 0.5 * inertia * rate ** 2 + mgd * (1.0 - np.cos(off - plumb))
+    amp = float(np.arccos(1.0 - energy / mgd))
+    start = plumb - np.sign(rate) * amp                  # it swings from the side it moves away from
+    df, _, _ = run_free("steer_stand", start, 1.5, truth=T.with_params(T.base_truth(), theta))
+    t, y = df["time_s"].to_numpy(), df["steer_angle_rad"].to_numpy()
+    w = np.gradient(y, t)
+    hit = np.nonzero((np.sign(y - off) != np.sign(y[0] - off)) & (np.sign(w) == np.sign(rate)))[0]
+    when = f"passes {off:+.3f} rad {t[hit[0]]:.2f} s later at {w[hit[0]]:+.2f} rad/s" if hit.size else "never passes it"
+    return (f"state at the let-go {off:+.3f} rad, {rate:+.2f} rad/s: the energy of a swing from {start - plumb:+.2f} rad "
+            f"from plumb (the joint at {start - segments(T.log_of(T.SHELL))[0].y0:+.2f} rad with the shell held at its "
+            f"release angle); the stand let go there {when}")
+
+
+def fit_held(cache, start: dict, evals: int) -> dict:
+    """The swing `swing_before` reads as a model: the pendulum held at a joint angle (rad) with
+    the shell at its release angle, let go at rest a lead time (s) before the shell; its state
+    at the shell's let-go is the twin's stand run (the pipe held, the fit's joint) at that lead.
+    Those two with the law and the pressure fitted, the joint as in `start`."""
+    import numpy as np
+
+    import roboball.testbed.replay as replay
+    from roboball.testbed.run import run_free
+
+    plain = replay.free_pendulum_run
+
+    def held(truth, p_kpa, t, seg, steer_offset=0.0, steer_rate=0.0):
+        nu = truth.get("logs", {}).get(T.SHELL, {})
+        if "held_joint_rad" not in nu:
+            return plain(truth, p_kpa, t, seg, steer_offset, steer_rate)
+        lead = nu["lead_s"]
+        df, _, _ = run_free("steer_stand", seg.y0 + nu["held_joint_rad"], lead + 0.01, truth=truth)
+        ts, y = df["time_s"].to_numpy(), df["steer_angle_rad"].to_numpy()
+        w = np.gradient(y, ts)
+        return plain(truth, p_kpa, t, seg, float(np.interp(lead, ts, y)), float(np.interp(lead, ts, w)))
+
+    T.PARAMS["held_joint"] = (("logs", T.SHELL, "held_joint_rad"), 1.0, 0.1, (0.4, 1.6), False)
+    T.PARAMS["lead"] = (("logs", T.SHELL, "lead_s"), 0.3, 0.05, (0.02, 1.0), False)
+    names = ("held_joint", "lead") + T.SHELL_LAW + ("p_shell",)
+    start = {k: v for k, v in start.items() if k not in ("steer_offset_shell", "steer_rate_shell")}
+    start = {**start, "held_joint": 1.0, "lead": 0.3}
+    replay.free_pendulum_run = held
+    try:
+        return T.fit(cache, [T.SHELL], names, {k: v for k, v in start.items() if k not in names}, evals, "held",
+                     start=start)
+    finally:
+        replay.free_pendulum_run = plain
+
+
+def joint_holds() -> list[str]:
+    """What the recorded steer joints say of the joint's hold near rest: the stand's pendulum's
+    still stretches away from the hand's holds (how far from its rest it can stop: the static
+    friction that could hold it there), and the coupled repeats' stretches where the joint moves
+    slower than 0.1 rad/s for at least 0.15 s while gravity pulls the pendulum with more than
+    0.8 N m (m g d sin of its angle from plumb; the pipe angle plus the joint angle)."""
+    import numpy as np
+
+    from roboball.config import load_robot
+    from roboball.testbed.effects import rest_angle
+    from roboball.testbed.replay import read_log
+
+    robot = load_robot()
+    pend = robot.links["pendulum"]
+    mgd = pend.mass_kg * 9.81 * float(np.hypot(pend.com_m[1], pend.com_m[2]))
+    plumb = rest_angle("steer_stand", robot)
+    st = read_log(T.REAL / f"{T.STAND}.csv")
+    t, y = st.t, st.values["pend_angle"]
+    stops, k = [], 0
+    while k < t.size:
+        j = int(np.searchsorted(t, t[k] + 0.5))
+        if j < t.size and np.ptp(y[k:j]) <= 0.002 and abs(np.median(y[k:j]) - plumb) < 0.1:
+            while j < t.size and np.ptp(y[k:j + 1]) <= 0.002:
+                j += 1
+            stops.append(float(np.median(y[k:j])))
+            k = j
+        else:
+            k += 1
+    far = max(abs(v - plumb) for v in stops)
+    out = [f"stand: {len(stops)} still stretches away from the holds, at {min(stops):+.3f} to {max(stops):+.3f} rad "
+           f"(rest {plumb:+.4f}): a hold there is at most {mgd * np.sin(far):.2f} N m (m g d = {mgd:.2f} N m)"]
+    for name in T.COUPLED:
+        lg = read_log(T.REAL / f"{name}.csv")
+        t, q, s = lg.t, lg.values["ball_roll.position"], lg.values["roll_joint.position"]
+        rate = np.gradient(np.convolve(s, np.ones(5) / 5, mode="same"), t)
+        tau = mgd * np.sin(q + s - plumb)
+        slow = (np.abs(rate) < 0.1) & (np.abs(tau) > 0.8) & (t > 0.3)
+        spans, k = [], 0
+        while k < t.size:
+            if slow[k]:
+                j = k
+                while j + 1 < t.size and slow[j + 1]:
+                    j += 1
+                if t[j] - t[k] >= 0.15:
+                    spans.append(f"{t[k]:.2f}-{t[j]:.2f} s at {np.mean(np.abs(tau[k:j + 1])):.2f} N m")
+                k = j + 1
+            else:
+                k += 1
+        out.append(f"{name[-6:]}: " + ("; ".join(spans) or "none"))
+    return out
+
+
 def recordings(theta: dict, folder: Path) -> tuple[Path, Path]:
     """(the twin's recording, the real log cut at its end), both in the log's own format."""
     from roboball.testbed.replay import replay
@@ -292,6 +492,13 @@ def main() -> int:
     ap.add_argument("--no-diagnose", action="store_true")
     ap.add_argument("--probe", type=int, default=0, metavar="EVALS",
                     help="also the probe with the diagnosis's rolling loss and softening cubic (fit_probe), EVALS evaluations")
+    ap.add_argument("--clamped", type=int, default=0, metavar="EVALS",
+                    help="also the probe with the steer joint clamped (fit_clamped), EVALS evaluations")
+    ap.add_argument("--stiction", type=int, default=0, metavar="EVALS",
+                    help="also the probe with a sticking steer joint (fit_stiction), EVALS evaluations")
+    ap.add_argument("--driven", type=int, default=0, metavar="EVALS",
+                    help="also the pendulum let go moving (state_grid, then fit_driven without and with the joint, "
+                         "and with the stand's joint), EVALS evaluations each")
     args = ap.parse_args()
     if not (T.REAL / f"{T.SHELL}.csv").is_file():
         print(f"the real shell log is not in {T.REAL}")
@@ -306,6 +513,30 @@ def main() -> int:
         rms = T.rms_all(cache, probe["theta"], [T.SHELL])[T.SHELL]     # evaluated in the fit: cached
         print(f"probe: shell log RMS {rms['ball_roll.position']:.4f} rad; "
               + ", ".join(f"{n} {v:.4g}" for n, v in probe["theta"].items()))
+    if args.clamped:
+        b = fit_clamped(cache, fits["alone"], args.clamped)
+        rms = T.rms_all(cache, b["theta"], [T.SHELL])[T.SHELL]
+        print(f"clamped: shell log RMS {rms['ball_roll.position']:.4f} rad; "
+              + ", ".join(f"{n} {b['theta'][n]:.4g}" for n in T.SHELL_LAW + ('p_shell',)))
+    if args.stiction:
+        b = fit_stiction(cache, fits["free"], args.stiction)
+        rms = T.rms_all(cache, b["theta"], [T.SHELL])[T.SHELL]
+        print(f"stiction: shell log RMS {rms['ball_roll.position']:.4f} rad; "
+              + ", ".join(f"{n} {b['theta'][n]:.4g}" for n in ("F_s", "F_c", "v_s") + T.SHELL_LAW + NUISANCE))
+    if args.driven:
+        print("the freed fit with the pendulum let go at an angle from plumb and a rate, shell log RMS (rad):")
+        lines, cell = state_grid(cache, fits["free"]["theta"])
+        for line in lines:
+            print(f"  {line}")
+        fits["driven"] = fit_driven(cache, cell, args.driven, joint=False)
+        fits["driven_joint"] = fit_driven(cache, fits["driven"]["theta"], args.driven, joint=True)
+        fits["driven_stand"] = fit_driven(cache, {**fits["driven"]["theta"], **calibrated_steer()}, args.driven,
+                                          joint=False)
+        for label in ("driven", "driven_joint", "driven_stand"):
+            print(f"{label}: {swing_before(fits[label]['theta'])}")
+    print("what the recorded joints say of its hold near rest:")
+    for line in joint_holds():
+        print(f"  {line}")
     for label, b in fits.items():
         rms = T.rms_all(cache, b["theta"], [T.SHELL])[T.SHELL]
         print(f"{label}: shell log RMS {rms['ball_roll.position']:.4f} rad; "
