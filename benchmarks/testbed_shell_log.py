@@ -59,6 +59,9 @@ FREER_STEER = {"F_c": 0.45, "F_s": 0.45, "v_s": 0.1, "viscous": 0.2, "rotor": 0.
 # the shell log's pendulum rate at the let-go (rad/s), a nuisance value the replay takes
 # (roboball.testbed.replay); not one the calibration fits
 T.PARAMS["steer_rate_shell"] = (("logs", T.SHELL, "steer_rate_rad_s"), 0.0, 1.0, (-6.0, 6.0), False)
+# a pendulum held at a joint angle and let go a lead time before the shell (fit_held)
+T.PARAMS["held_joint"] = (("logs", T.SHELL, "held_joint_rad"), 1.0, 0.1, (0.4, 1.6), False)
+T.PARAMS["lead"] = (("logs", T.SHELL, "lead_s"), 0.3, 0.05, (0.02, 1.0), False)
 NUISANCE = ("p_shell", "steer_offset_shell")
 
 
@@ -298,19 +301,16 @@ def swing_before(theta: dict) -> str:
             f"release angle); the stand let go there {when}")
 
 
-def fit_held(cache, start: dict, evals: int) -> dict:
-    """The swing `swing_before` reads as a model: the pendulum held at a joint angle (rad) with
-    the shell at its release angle, let go at rest a lead time (s) before the shell; its state
-    at the shell's let-go is the twin's stand run (the pipe held, the fit's joint) at that lead.
-    Those two with the law and the pressure fitted, the joint as in `start`."""
+def held_run(plain):
+    """`free_pendulum_run` for a shell log whose nuisance values hold the pendulum at a joint
+    angle (rad, the shell at its release angle) and let it go at rest a lead time (s) before the
+    shell: its state at the shell's let-go is the twin's stand run (the pipe held, the truth's
+    joint) at that lead.  Other truths run as `plain` does."""
     import numpy as np
 
-    import roboball.testbed.replay as replay
     from roboball.testbed.run import run_free
 
-    plain = replay.free_pendulum_run
-
-    def held(truth, p_kpa, t, seg, steer_offset=0.0, steer_rate=0.0):
+    def run(truth, p_kpa, t, seg, steer_offset=0.0, steer_rate=0.0):
         nu = truth.get("logs", {}).get(T.SHELL, {})
         if "held_joint_rad" not in nu:
             return plain(truth, p_kpa, t, seg, steer_offset, steer_rate)
@@ -319,18 +319,17 @@ def fit_held(cache, start: dict, evals: int) -> dict:
         ts, y = df["time_s"].to_numpy(), df["steer_angle_rad"].to_numpy()
         w = np.gradient(y, ts)
         return plain(truth, p_kpa, t, seg, float(np.interp(lead, ts, y)), float(np.interp(lead, ts, w)))
+    return run
 
-    T.PARAMS["held_joint"] = (("logs", T.SHELL, "held_joint_rad"), 1.0, 0.1, (0.4, 1.6), False)
-    T.PARAMS["lead"] = (("logs", T.SHELL, "lead_s"), 0.3, 0.05, (0.02, 1.0), False)
+
+def fit_held(cache, start: dict, evals: int) -> dict:
+    """The swing `swing_before` reads as a model (`held_run`): the held joint angle and the lead
+    fitted with the law and the pressure, from 1.0 rad and 0.3 s, the joint as in `start`."""
     names = ("held_joint", "lead") + T.SHELL_LAW + ("p_shell",)
     start = {k: v for k, v in start.items() if k not in ("steer_offset_shell", "steer_rate_shell")}
     start = {**start, "held_joint": 1.0, "lead": 0.3}
-    replay.free_pendulum_run = held
-    try:
-        return T.fit(cache, [T.SHELL], names, {k: v for k, v in start.items() if k not in names}, evals, "held",
-                     start=start)
-    finally:
-        replay.free_pendulum_run = plain
+    return T.fit(cache, [T.SHELL], names, {k: v for k, v in start.items() if k not in names}, evals, "held",
+                 start=start)
 
 
 def joint_holds() -> list[str]:
@@ -420,7 +419,8 @@ def pendulum(theta: dict) -> str:
     log = T.log_of(T.SHELL)
     truth = T.with_params(T.base_truth(), theta)
     t = np.arange(0.0, 4.0, 0.002)
-    run = free_pendulum_run(truth, pressure_of(log, truth, None), t, segments(log)[0], theta["steer_offset_shell"])
+    run = free_pendulum_run(truth, pressure_of(log, truth, None), t, segments(log)[0], theta["steer_offset_shell"],
+                            theta.get("steer_rate_shell", 0.0))
     q, s = run["pipe_angle_rad"], run["steer_angle_rad"]
     rate = np.gradient(s, t)
     k = int(np.argmax(q))
@@ -485,6 +485,9 @@ def summary(d: dict) -> str:
 
 
 def main() -> int:
+    import roboball.testbed.replay as replay
+
+    replay.free_pendulum_run = held_run(replay.free_pendulum_run)
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--evals-alone", type=int, default=150)
     ap.add_argument("--evals-free", type=int, default=200)
@@ -534,6 +537,7 @@ def main() -> int:
                                           joint=False)
         for label in ("driven", "driven_joint", "driven_stand"):
             print(f"{label}: {swing_before(fits[label]['theta'])}")
+        fits["held_stand"] = fit_held(cache, fits["driven_stand"]["theta"], args.driven)
     print("what the recorded joints say of its hold near rest:")
     for line in joint_holds():
         print(f"  {line}")
