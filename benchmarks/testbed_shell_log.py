@@ -59,7 +59,8 @@ FREER_STEER = {"F_c": 0.45, "F_s": 0.45, "v_s": 0.1, "viscous": 0.2, "rotor": 0.
 # the shell log's pendulum rate at the let-go (rad/s), a nuisance value the replay takes
 # (roboball.testbed.replay); not one the calibration fits
 T.PARAMS["steer_rate_shell"] = (("logs", T.SHELL, "steer_rate_rad_s"), 0.0, 1.0, (-6.0, 6.0), False)
-# a pendulum held at a joint angle and let go a lead time before the shell (fit_held)
+# a pendulum held at a joint angle and let go a lead time before the shell (fit_held; the
+# replay's pendulum_at_let_go)
 T.PARAMS["held_joint"] = (("logs", T.SHELL, "held_joint_rad"), 1.0, 0.1, (0.4, 1.6), False)
 T.PARAMS["lead"] = (("logs", T.SHELL, "lead_s"), 0.3, 0.05, (0.02, 1.0), False)
 NUISANCE = ("p_shell", "steer_offset_shell")
@@ -301,30 +302,10 @@ def swing_before(theta: dict) -> str:
             f"release angle); the stand let go there {when}")
 
 
-def held_run(plain):
-    """`free_pendulum_run` for a shell log whose nuisance values hold the pendulum at a joint
-    angle (rad, the shell at its release angle) and let it go at rest a lead time (s) before the
-    shell: its state at the shell's let-go is the twin's stand run (the pipe held, the truth's
-    joint) at that lead.  Other truths run as `plain` does."""
-    import numpy as np
-
-    from roboball.testbed.run import run_free
-
-    def run(truth, p_kpa, t, seg, steer_offset=0.0, steer_rate=0.0):
-        nu = truth.get("logs", {}).get(T.SHELL, {})
-        if "held_joint_rad" not in nu:
-            return plain(truth, p_kpa, t, seg, steer_offset, steer_rate)
-        lead = nu["lead_s"]
-        df, _, _ = run_free("steer_stand", seg.y0 + nu["held_joint_rad"], lead + 0.01, truth=truth)
-        ts, y = df["time_s"].to_numpy(), df["steer_angle_rad"].to_numpy()
-        w = np.gradient(y, ts)
-        return plain(truth, p_kpa, t, seg, float(np.interp(lead, ts, y)), float(np.interp(lead, ts, w)))
-    return run
-
-
 def fit_held(cache, start: dict, evals: int) -> dict:
-    """The swing `swing_before` reads as a model (`held_run`): the held joint angle and the lead
-    fitted with the law and the pressure, from 1.0 rad and 0.3 s, the joint as in `start`."""
+    """The swing `swing_before` reads as a model (the replay's `pendulum_at_let_go`: the joint
+    held at an angle, let go at rest a lead time before the shell): the held joint angle and the
+    lead fitted with the law and the pressure, from 1.0 rad and 0.3 s, the joint as in `start`."""
     names = ("held_joint", "lead") + T.SHELL_LAW + ("p_shell",)
     start = {k: v for k, v in start.items() if k not in ("steer_offset_shell", "steer_rate_shell")}
     start = {**start, "held_joint": 1.0, "lead": 0.3}
@@ -414,13 +395,14 @@ def pendulum(theta: dict) -> str:
     (rad/s) at the shell's first turning point, its fastest before and after it."""
     import numpy as np
 
-    from roboball.testbed.replay import free_pendulum_run, pressure_of, segments
+    from roboball.testbed.replay import free_pendulum_run, pendulum_at_let_go, pressure_of, segments
 
     log = T.log_of(T.SHELL)
     truth = T.with_params(T.base_truth(), theta)
     t = np.arange(0.0, 4.0, 0.002)
-    run = free_pendulum_run(truth, pressure_of(log, truth, None), t, segments(log)[0], theta["steer_offset_shell"],
-                            theta.get("steer_rate_shell", 0.0))
+    seg = segments(log)[0]
+    run = free_pendulum_run(truth, pressure_of(log, truth, None), t, seg,
+                            *pendulum_at_let_go(truth, seg, truth.get("logs", {}).get(T.SHELL, {})))
     q, s = run["pipe_angle_rad"], run["steer_angle_rad"]
     rate = np.gradient(s, t)
     k = int(np.argmax(q))
@@ -485,9 +467,6 @@ def summary(d: dict) -> str:
 
 
 def main() -> int:
-    import roboball.testbed.replay as replay
-
-    replay.free_pendulum_run = held_run(replay.free_pendulum_run)
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--evals-alone", type=int, default=150)
     ap.add_argument("--evals-free", type=int, default=200)

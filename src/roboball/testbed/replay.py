@@ -23,7 +23,9 @@ grid) that fits that free response best, held still before it.  The shell's pres
 log's calibrated nuisance value (truth.yaml `real_robot.logs`)
 unless `--pressure-kpa` gives one; so is the shell log's pendulum angle at its release (its
 offset from plumb; the log does not record the joint) and, where the nuisance values give one,
-its rate there (`steer_rate_rad_s`; none in the calibrated twin: it hangs still).  A bad log is refused with a one-line error naming the file
+its rate there (`steer_rate_rad_s`), or instead the joint angle it was held at and how long
+before the shell it was let go (`held_joint_rad`, `lead_s`: `pendulum_at_let_go`); the
+calibrated twin has neither: its pendulum hangs still.  A bad log is refused with a one-line error naming the file
 and what is wrong, and no output is written (the CSV is written atomically).
 """
 from __future__ import annotations
@@ -177,6 +179,23 @@ def free_pendulum_run(truth: dict, p_kpa: float, t: np.ndarray, seg: Segment, st
     return {c: np.interp(t, ts, df[c].to_numpy()) for c in ("pipe_angle_rad", "steer_angle_rad", "pipe_rate_rad_s")}
 
 
+def pendulum_at_let_go(truth: dict, seg: Segment, nuisance: dict) -> tuple[float, float]:
+    """The shell log's pendulum at the shell's let-go, from the log's nuisance values: its angle
+    (rad, `steer_offset` of `free_pendulum_run`) and rate (rad/s).  Either given as they are
+    (`steer_offset_rad`, `steer_rate_rad_s`; absent: hanging still), or as a hold: the joint
+    held at `held_joint_rad` with the shell at its release angle and let go at rest `lead_s`
+    before the shell, the state the twin's stand run (the pipe held, the truth's joint) reaches
+    at that lead (docs/testbed.md, the shell log's let-go)."""
+    if "held_joint_rad" not in nuisance:
+        return float(nuisance.get("steer_offset_rad", 0.0)), float(nuisance.get("steer_rate_rad_s", 0.0))
+    from roboball.testbed.run import run_free
+
+    lead = float(nuisance["lead_s"])
+    df, _, _ = run_free("steer_stand", seg.y0 + float(nuisance["held_joint_rad"]), lead + 0.01, truth=truth)
+    ts, y = df["time_s"].to_numpy(), df["steer_angle_rad"].to_numpy()
+    return float(np.interp(lead, ts, y)), float(np.interp(lead, ts, np.gradient(y, ts)))
+
+
 def _let_go(t: np.ndarray, ts: np.ndarray, run: dict, main: str, y0: float, measured: np.ndarray) -> dict:
     """The run `run` (columns at its times `ts`, from its let-go) at the log's times `t` (from
     the finder's release instant), let go at the delay of LET_GO_DELAYS_S that fits `measured`
@@ -209,8 +228,7 @@ def simulate_log(log: RealLog, truth: dict, p_kpa: float | None = None) -> tuple
             df, _, _ = run_free("steer_stand", seg.y0, float(t_sim[-1]) + 1e-3, truth=truth)
             ts, run = df["time_s"].to_numpy(), {"pend_angle": df["steer_angle_rad"].to_numpy()}
         else:
-            r = free_pendulum_run(truth, p, t_sim, seg, float(nuisance.get("steer_offset_rad", 0.0)),
-                                  float(nuisance.get("steer_rate_rad_s", 0.0)))
+            r = free_pendulum_run(truth, p, t_sim, seg, *pendulum_at_let_go(truth, seg, nuisance))
             ts, run = t_sim, {"ball_roll.position": r["pipe_angle_rad"]}
             if "ball_roll.velocity" in cols:
                 run["ball_roll.velocity"] = r["pipe_rate_rad_s"]
