@@ -61,8 +61,7 @@ FREER_STEER = {"F_c": 0.45, "F_s": 0.45, "v_s": 0.1, "viscous": 0.2, "rotor": 0.
 T.PARAMS["steer_rate_shell"] = (("logs", T.SHELL, "steer_rate_rad_s"), 0.0, 1.0, (-6.0, 6.0), False)
 # a pendulum held at a joint angle and let go a lead time before the shell (fit_held; the
 # replay's pendulum_at_let_go)
-T.PARAMS["held_joint"] = (("logs", T.SHELL, "held_joint_rad"), 1.0, 0.1, (0.4, 1.6), False)
-T.PARAMS["lead"] = (("logs", T.SHELL, "lead_s"), 0.3, 0.05, (0.02, 1.0), False)
+T.PARAMS.update(T.HELD)
 NUISANCE = ("p_shell", "steer_offset_shell")
 
 
@@ -278,16 +277,12 @@ def swing_before(theta: dict) -> str:
     import numpy as np
 
     from roboball.config import load_robot
-    from roboball.testbed.effects import rest_angle
     from roboball.testbed.replay import segments
     from roboball.testbed.run import run_free
 
-    robot = load_robot()
-    pend = robot.links["pendulum"]
-    mgd = pend.mass_kg * 9.81 * float(np.hypot(pend.com_m[1], pend.com_m[2]))
-    arm2 = pend.com_m[1] ** 2 + pend.com_m[2] ** 2
-    inertia = pend.inertia_kg_m2[0] + pend.mass_kg * arm2 + theta.get("rotor", 0.0)   # about the joint, with the rotor
-    plumb = rest_angle("steer_stand", robot)
+    stand = load_robot().steer_stand_terms
+    mgd, plumb = stand["mgd"], stand["rest_angle"]
+    inertia = stand["inertia"] + theta.get("rotor", 0.0)          # about the joint, with the rotor
     off, rate = theta["steer_offset_shell"], theta["steer_rate_shell"]
     energy = 0.5 * inertia * rate ** 2 + mgd * (1.0 - np.cos(off - plumb))
     amp = float(np.arccos(1.0 - energy / mgd))
@@ -322,13 +317,10 @@ def joint_holds() -> list[str]:
     import numpy as np
 
     from roboball.config import load_robot
-    from roboball.testbed.effects import rest_angle
     from roboball.testbed.replay import read_log
 
-    robot = load_robot()
-    pend = robot.links["pendulum"]
-    mgd = pend.mass_kg * 9.81 * float(np.hypot(pend.com_m[1], pend.com_m[2]))
-    plumb = rest_angle("steer_stand", robot)
+    stand = load_robot().steer_stand_terms
+    mgd, plumb = stand["mgd"], stand["rest_angle"]
     st = read_log(T.REAL / f"{T.STAND}.csv")
     t, y = st.t, st.values["pend_angle"]
     stops, k = [], 0
@@ -350,17 +342,8 @@ def joint_holds() -> list[str]:
         rate = np.gradient(np.convolve(s, np.ones(5) / 5, mode="same"), t)
         tau = mgd * np.sin(q + s - plumb)
         slow = (np.abs(rate) < 0.1) & (np.abs(tau) > 0.8) & (t > 0.3)
-        spans, k = [], 0
-        while k < t.size:
-            if slow[k]:
-                j = k
-                while j + 1 < t.size and slow[j + 1]:
-                    j += 1
-                if t[j] - t[k] >= 0.15:
-                    spans.append(f"{t[k]:.2f}-{t[j]:.2f} s at {np.mean(np.abs(tau[k:j + 1])):.2f} N m")
-                k = j + 1
-            else:
-                k += 1
+        spans = [f"{t[k]:.2f}-{t[j]:.2f} s at {np.mean(np.abs(tau[k:j + 1])):.2f} N m"
+                 for k, j in runs(slow) if t[j] - t[k] >= 0.15]
         out.append(f"{name[-6:]}: " + ("; ".join(spans) or "none"))
     return out
 
@@ -417,17 +400,22 @@ def still_s(t, y, below: float = 0.25, window=(0.6, 2.5)) -> float:
 
     y = np.convolve(y, np.ones(5) / 5, mode="same")
     slow = (t > window[0]) & (t < window[1]) & (np.abs(np.gradient(y, t)) < below)
-    best, k = 0.0, 0
-    while k < t.size:
-        if slow[k]:
+    return max((float(t[j] - t[k]) for k, j in runs(slow)), default=0.0)
+
+
+def runs(mask) -> list[tuple[int, int]]:
+    """(first, last) index of each run of True in `mask`."""
+    out, k = [], 0
+    while k < len(mask):
+        if mask[k]:
             j = k
-            while j + 1 < t.size and slow[j + 1]:
+            while j + 1 < len(mask) and mask[j + 1]:
                 j += 1
-            best = max(best, float(t[j] - t[k]))
+            out.append((k, j))
             k = j + 1
         else:
             k += 1
-    return best
+    return out
 
 
 def repeats_pendulum(folder: Path) -> str:

@@ -168,7 +168,6 @@ def test_a_pendulum_held_and_let_go_before_the_shell_reaches_it_swinging_toward_
     faster than its fall from the hold allows without friction."""
     import numpy as np
     from roboball.config import load_robot
-    from roboball.testbed.effects import rest_angle
     from roboball.testbed.physics import load_truth
     from roboball.testbed.replay import Segment, pendulum_at_let_go
     truth = load_truth(real=True)
@@ -176,11 +175,9 @@ def test_a_pendulum_held_and_let_go_before_the_shell_reaches_it_swinging_toward_
     angle, rate = pendulum_at_let_go(truth, seg, {"held_joint_rad": 1.0, "lead_s": 0.005})
     assert angle == pytest.approx(0.6, abs=2e-3) and abs(rate) < 0.1
     angle, rate = pendulum_at_let_go(truth, seg, {"held_joint_rad": 1.0, "lead_s": 0.25})
-    robot = load_robot()
-    pend, plumb = robot.links["pendulum"], rest_angle("steer_stand", robot)
-    mgd = pend.mass_kg * 9.81 * float(np.hypot(pend.com_m[1], pend.com_m[2]))
-    inertia = pend.inertia_kg_m2[0] + pend.mass_kg * (pend.com_m[1] ** 2 + pend.com_m[2] ** 2)
-    bound = np.sqrt(2 * mgd * (np.cos(angle - plumb) - np.cos(0.6 - plumb)) / inertia)
+    stand = load_robot().steer_stand_terms
+    plumb = stand["rest_angle"]
+    bound = np.sqrt(2 * stand["mgd"] * (np.cos(angle - plumb) - np.cos(0.6 - plumb)) / stand["inertia"])
     assert angle < 0.3 and -bound - 1e-9 <= rate < -2.0
     assert pendulum_at_let_go(truth, seg, {"steer_offset_rad": 0.2, "steer_rate_rad_s": -1.0}) == (0.2, -1.0)
     assert pendulum_at_let_go(truth, seg, {}) == (0.0, 0.0)
