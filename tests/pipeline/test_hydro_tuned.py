@@ -39,3 +39,32 @@ def test_hydro_tuned_is_drakes_hydroelastic_contact_with_the_calibrated_values(f
     assert (sp.hydro_modulus, sp.hydro_dissipation) == pytest.approx((1.0e4, 0.4))
     contact, sp = shell_params("hydroelastic", 13.8, reg, fit, dissipation_scale=0.5)
     assert contact == "hydroelastic" and sp.hydro_modulus is None and sp.dissipation_scale == 0.5
+
+
+def test_the_coupled_test_runs_the_calibrated_shell_only_inside_its_calibrated_pressures(files):
+    """Fig. S2: the repeats' pressure is fitted and may lie beyond the shell releases'; the
+    calibrated hydroelastic shell is then left out, and the table says why."""
+    from types import SimpleNamespace
+
+    from roboball.diagnose.coupled import PressureFit
+    from roboball.pipeline.coupled import calibrated_shell, table_markdown
+    fit, _ = files
+    reps = [SimpleNamespace(name="a"), SimpleNamespace(name="b")]
+    laws = SimpleNamespace(pressure_free=False)
+    inside = PressureFit(10.0, (9.0, 11.0), (), [], {"a": 9.5, "b": 12.0})
+    extra, left_out = calibrated_shell(fit, reps, inside, laws)
+    assert [m.name for m in extra] == ["hydro_tuned"] and left_out == {}
+    assert extra[0].shell(9.5, None)[1].hydro_modulus == pytest.approx(tuned_at(fit, 9.5)[0])
+    beyond = PressureFit(12.0, (11.0, 15.0), (), [], {"a": 12.0, "b": 14.2})
+    extra, left_out = calibrated_shell(fit, reps, beyond, laws)
+    assert extra == () and left_out == {"hydro_tuned": "the repeats' fitted pressures 14.2 kPa lie outside its "
+                                                       "calibrated 6.9-13.8 kPa"}
+    assert calibrated_shell("", reps, inside, laws) == ((), {})
+    table = pd.DataFrame([{"model": "injected", "repeat": "a", "held_out": True, "pressure_kpa": 12.0,
+                           "rms_pipe_angle_rad": 0.1, "rms_steer_angle_rad": 0.1}])
+    summary = {"pressure": {"p_kpa": 12.0, "ci95_kpa": [11.0, 15.0], "folds": {"a": 12.0}, "extrapolated": True},
+               "authors_objective": {"theirs_loss_rad2": 0.2, "theirs_params": [1.5e5, 0.4], "ours_loss_rad2": 0.1,
+                                     "ours_params": [6e5, 0.05], "evaluations": 30}, "left_out": left_out}
+    md = table_markdown(table, summary)
+    assert "(beyond the shell releases' pressures: the shell laws extrapolated)." in md
+    assert "Not run: `hydro_tuned`, the repeats' fitted pressures 14.2 kPa lie outside its calibrated 6.9-13.8 kPa." in md

@@ -138,13 +138,31 @@ def table_markdown(table: pd.DataFrame, summary: dict) -> str:
         n = count_word(len(pf["folds"]))
         lines += ["", f"Pressure (not logged), fitted with the injected model, shared by the {n} repeats: "
                   f"{pf['p_kpa']:.1f} kPa, 95 % profile interval [{pf['ci95_kpa'][0]:.1f}, {pf['ci95_kpa'][1]:.1f}] kPa; "
-                  "leave-one-out folds: " + ", ".join(f"{v:.1f}" for v in pf["folds"].values()) + " kPa."]
+                  "leave-one-out folds: " + ", ".join(f"{v:.1f}" for v in pf["folds"].values()) + " kPa"
+                  + (" (beyond the shell releases' pressures: the shell laws extrapolated)." if pf.get("extrapolated") else ".")]
     lines += ["", f"Authors' objective (exp(-t/3 s)-weighted mean squared pipe-angle error against the repeats' "
               f"average) in our Drake model: theirs {af['theirs_loss_rad2']:.5f} rad^2 at "
               f"[{af['theirs_params'][0]:.4g} Pa, {af['theirs_params'][1]:.4g} s/m]; ours {af['ours_loss_rad2']:.5f} "
               f"rad^2 at [{af['ours_params'][0]:.4g} Pa, {af['ours_params'][1]:.4g} s/m] "
               f"({af['evaluations']} Drake runs).", ""]
+    lines += [f"Not run: `{m}`, {why}.\n" for m, why in summary.get("left_out", {}).items()]
     return "\n".join(lines)
+
+
+def calibrated_shell(hydro_fit: str, reps, pressure, laws) -> tuple[tuple, dict]:
+    """((the calibrated hydroelastic shell,) or (), {model: why it is left out}): it runs only at
+    pressures its calibration covers, so only when every repeat's (fold's) pressure is inside."""
+    if not hydro_fit:
+        return (), {}
+    from roboball.pipeline.simulation import in_tuned_range, tuned_at, tuned_range
+    from roboball.sim.coupled import calibrated
+    used = [pressure.folds.get(r.name, pressure.p_kpa) for r in reps]
+    outside = sorted({round(float(p), 1) for p in used if not laws.pressure_free and not in_tuned_range(hydro_fit, p)})
+    if outside:
+        lo, hi = tuned_range(hydro_fit)
+        return (), {"hydro_tuned": f"the repeats' fitted pressures {', '.join(f'{p:g}' for p in outside)} kPa lie "
+                                   f"outside its calibrated {lo:g}-{hi:g} kPa"}
+    return (calibrated(lambda p: tuned_at(hydro_fit, p)),), {}
 
 
 def steer_coupled(recordings: list, regression: str, friction_steer: str, out_json: str, out_csv: str,
@@ -169,11 +187,7 @@ def steer_coupled(recordings: list, regression: str, friction_steer: str, out_js
     pressure = unfitted_pressure(reps) if laws.pressure_free else fit_pressure(reps, laws, friction)
     authors = fit_authors_objective(reps, friction, max_evals=nm_evals)
     diagnosed = held_out(reps, laws, friction, pressure)
-    extra = ()
-    if hydro_fit:
-        from roboball.pipeline.simulation import tuned_at
-        from roboball.sim.coupled import calibrated
-        extra = (calibrated(lambda p: tuned_at(hydro_fit, p)),)
+    extra, left_out = calibrated_shell(hydro_fit, reps, pressure, laws)
     table, traces = run_models(reps, laws, friction, pressure, authors, diagnosed, extra)
     summary = {
         "pressure": ({"p_kpa": None, "model": "not fitted", "zeta": laws.zeta_a, "omega_n_rad_s": laws.omega_n_c,
@@ -185,6 +199,7 @@ def steer_coupled(recordings: list, regression: str, friction_steer: str, out_js
         "diagnosed": [{k: v for k, v in f.items() if k != "spec"} for f in diagnosed],
         "diagnosed_beats_paper_models": beats_paper_models(table),
         "friction_steer": friction,
+        "left_out": left_out,
     }
     plot(traces, table, out_png, campaign=campaign, pressure_free=laws.pressure_free)
     write_csv_atomic(table, table_csv)

@@ -39,11 +39,22 @@ def tuned_at(hydro_fit_csv: str, p_kpa: float) -> tuple[float, float]:
         raise RoboballError("contact hydro_tuned needs the hydroelastic calibration (--hydro-fit)")
     f = pd.read_csv(hydro_fit_csv).sort_values("pressure_kpa")
     ps = f.pressure_kpa.to_numpy()
-    if not ps.min() - 1e-6 <= p_kpa <= ps.max() + 1e-6:
+    if not in_tuned_range(hydro_fit_csv, p_kpa):
         raise RoboballError(f"{hydro_fit_csv}: pressure {p_kpa:g} kPa is outside the calibrated "
                             f"{ps.min():g}-{ps.max():g} kPa")
     return tuple(float(np.exp(np.interp(p_kpa, ps, np.log(f[c].to_numpy()))))
                  for c in ("hydro_modulus_pa", "hydro_dissipation_s_m"))
+
+
+def tuned_range(hydro_fit_csv: str) -> tuple[float, float]:
+    """(lowest, highest) pressure (kPa) of the hydroelastic calibration's table."""
+    ps = pd.read_csv(hydro_fit_csv).pressure_kpa
+    return float(ps.min()), float(ps.max())
+
+
+def in_tuned_range(hydro_fit_csv: str, p_kpa: float) -> bool:
+    lo, hi = tuned_range(hydro_fit_csv)
+    return lo - 1e-6 <= p_kpa <= hi + 1e-6
 
 
 def shell_params(contact: str, p_kpa: float, regression: str, hydro_fit: str = "", **kw):
