@@ -29,7 +29,7 @@ from pathlib import Path
 import pandas as pd
 
 from roboball.testbed.campaign import jobs, make_file
-from roboball.testbed.physics import load_truth
+from roboball.testbed.physics import campaign_truth
 
 REPO = Path(__file__).resolve().parents[1]
 OTHERS = ("point", "injected", "hydroelastic", "hydro_tuned")
@@ -41,7 +41,7 @@ NAMED = "stiction+quadratic_drag"
 
 
 def redraw_ramps(raw: Path, seed: int) -> None:
-    truth = load_truth()
+    truth = campaign_truth()
     truth["seed"] = seed
     todo = [j for j in jobs(truth) if j["kind"] == "ramp"]
     with ProcessPoolExecutor(2) as pool:
@@ -79,7 +79,7 @@ def one_seed(seed: int, keep: Path | None) -> list[dict]:
         raise SystemExit(f"seed {seed}: snakemake failed:\n{r.stderr[-3000:]}")
     table = pd.read_csv(work / "paper_figures" / "table_pme.csv")
     rows = []
-    for p in load_truth()["campaign"]["pressures_kpa"]:
+    for p in campaign_truth()["campaign"]["pressures_kpa"]:
         at_p = table[table.pressure_kpa == p].set_index("contact")
         at, mape = at_p["pme_mean_percent"], at_p["mape_mean_percent"]
         held = [effects(f) for f in sorted((work / "results/diagnose/heldout").glob(f"ramp_{p}kpa_r*/diagnosis.json"))]

@@ -19,7 +19,7 @@ import pandas as pd
 
 from roboball.pipeline.simulation import pme
 from roboball.testbed.campaign import jobs, ramp_release_s
-from roboball.testbed.physics import load_truth
+from roboball.testbed.physics import campaign_truth
 
 CONTACTS = ("point", "injected", "hydroelastic", "diagnosed")
 
@@ -29,7 +29,7 @@ def main():
     ap.add_argument("--results", default="results")
     args = ap.parse_args()
     res = Path(args.results)
-    truth = load_truth()
+    truth = campaign_truth()
     rows = []
     for job in jobs(truth):
         if job["kind"] != "ramp":

@@ -104,7 +104,7 @@ SET_AT_KPA = 8.5
 
 
 def base_truth() -> dict:
-    """The campaign's truth with the new physics' fixed values and the real logs' section."""
+    """The test bed's own robot's truth with the new physics' fixed values and the real logs' section."""
     t = load_truth()
     t["shell"]["set_at_kpa"] = SET_AT_KPA
     t["logs"] = {"steer_coupled": {}, "dynamic_data": {}}
@@ -320,7 +320,8 @@ def report(cache: Cache) -> dict:
         fold = done("out_" + lg)
         table[lg] = {"target_rad": TARGET_RAD[lg], "in_sample": shell["in_sample"][lg],
                      "held_out": fold["held_out"] if fold else None}
-    # before: the campaign's robot (no new physics), the shell log at its calibration pressure
+    # before: the test bed's own robot (no new physics; the campaign's until it was the twin's),
+    # the shell log at its calibration pressure
     # 13.8 kPa, the repeats at 6.9 kPa (its best pressure, docs/testbed.md)
     camp = load_truth()
     camp["logs"] = {"steer_coupled": {"pressure_kpa": 6.9}, "dynamic_data": {"pressure_kpa": 13.8}}

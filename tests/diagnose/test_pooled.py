@@ -227,8 +227,8 @@ def test_the_membrane_shell_is_named_as_a_breakaway_with_its_width_and_interval(
     """At 10.3 kPa the test bed's membrane shell hides its flat's start-up resistance and its
     skin's hysteresis loss in the ramp runs: the pooled diagnosis (materiality counted in the
     noise of the averaged trend the fit compares, about a third of the sensor's here) names a
-    breakaway of 5.0-6.5 N m fading over 2.4-3.4 rad/s (measured 5.73 N m, 2.88 rad/s) and a
-    quadratic drag, and no candidate is refused for materiality alone."""
+    breakaway of 3.8-5.2 N m fading over 2.4-3.4 rad/s (measured on the twin's campaign 4.45 N m)
+    and a quadratic drag, and no candidate is refused for materiality alone."""
     from roboball.diagnose.keep import immaterial
     from roboball.report.uncertainty import _immaterial
 
@@ -239,7 +239,7 @@ def test_the_membrane_shell_is_named_as_a_breakaway_with_its_width_and_interval(
     st = js["missing_physics"][0]
     for p in ("tau_s", "v_s"):
         assert 0 < st["ci95"][p][0] < st["parameters"][p] < st["ci95"][p][1]
-    assert 5.0 < st["parameters"]["tau_s"] < 6.5 and 2.4 < st["parameters"]["v_s"] < 3.4
+    assert 3.8 < st["parameters"]["tau_s"] < 5.2 and 2.4 < st["parameters"]["v_s"] < 3.4
     assert "flat" in st["mechanism"] and "bearings" not in st["mechanism"]
     # report.md names a two-parameter effect once: its width on a row of its own below it
     assert "\n|  |  | v_s = " in (out / "report.md").read_text()

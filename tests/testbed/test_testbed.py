@@ -84,11 +84,13 @@ def test_regenerating_the_whole_campaign_reproduces_the_manifest(tmp_path):
 
 
 def test_testbed_shell_logs_follow_the_membrane_patch(robot):
-    """Decay from the test bed's shell logs (roboball.testbed.membrane): omega_n sits above eq. 5
-    and falls with pressure (the flat that stiffens the rocking is the patch, which shrinks as
-    the pressure rises); zeta stays near the real dynamic log's 0.30 at every pressure; small
-    swings damp more than large ones (the bedliner's loss peak lies at low rolling rates), as the
-    real log's first half-swing loses little and its last ones much."""
+    """Decay from the test bed's shell logs (roboball.testbed.membrane, the calibrated twin's):
+    omega_n sits above eq. 5 and falls with pressure (the flat that stiffens the rocking is the
+    patch, which shrinks as the pressure rises); zeta is 0.06-0.11 at every pressure (the twin
+    was calibrated with its pendulum free, which damps the real logs through the steer joint's
+    friction; the clamp takes that away, docs/testbed.md); small swings damp more than large ones
+    (the bedliner's loss peak lies at low rolling rates), as the real log's first half-swing
+    loses little and its last ones much."""
     from roboball.identify.shell.decay import decay_table
     from roboball.ingest.recording import normalise, read_recording
 
@@ -102,6 +104,6 @@ def test_testbed_shell_logs_follow_the_membrane_patch(robot):
     by_p = d.groupby("pressure_kpa")[["zeta", "omega_n_rad_s"]].mean().sort_index()
     assert np.all(np.diff(by_p.omega_n_rad_s.to_numpy()) < 0), by_p
     assert np.all(by_p.omega_n_rad_s.to_numpy() > robot.omega_n_eq5 * 1.1)
-    assert by_p.zeta.between(0.2, 0.35).all(), by_p
+    assert by_p.zeta.between(0.06, 0.11).all(), by_p
     both = d.dropna(subset=["zeta_early", "zeta_late"])
     assert len(both) >= 5 and (both.zeta_late > both.zeta_early).mean() >= 0.9, both

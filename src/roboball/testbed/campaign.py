@@ -16,7 +16,7 @@ import pandas as pd
 
 from roboball.atomic import write_csv_atomic
 from roboball.ingest.recording import write_recording
-from roboball.testbed.physics import load_truth, true_robot
+from roboball.testbed.physics import campaign_truth, true_robot
 from roboball.testbed.run import ALL_EXTRAS, ramp_exit_time, run_free
 from roboball.testbed.sensors import hand_phase, measure
 
@@ -94,7 +94,7 @@ def ramp_release_s(file: str, truth: dict | None = None) -> float:
     """The instant (s, recording time) at which the test bed let go of the ramp run `file` (as
     named in the MANIFEST, e.g. "ramp/ramp_20.7kpa_r1.csv"): ground truth that the recording
     does not carry, for auditing release detection (benchmarks/ramp_release_audit.py)."""
-    truth = truth or load_truth()
+    truth = truth or campaign_truth()
     _, n_pre = _ramp_start(_rng(truth["seed"], file), truth)
     return n_pre / truth["simulation"]["sample_rate_hz"]
 
@@ -133,6 +133,8 @@ def make_file(job: dict, out_dir: str, truth: dict) -> dict:
     else:
         c = truth["campaign"][kind]
         dense = release_recording(kind, p, c["releases_rad"], c["free_s"], truth, rng)
+        if kind == "shell_rock":
+            meta["steer_joint"] = "locked"     # the paper's clamp (Fig. 9) holds the pendulum
     rec = measure(dense, truth["sensors"], rng)
     path = Path(out_dir) / job["file"]
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -143,7 +145,7 @@ def make_file(job: dict, out_dir: str, truth: dict) -> dict:
 
 def generate(out_dir: str | Path, only: str | None = None, workers: int = 2) -> pd.DataFrame:
     """Write the campaign (or the files whose name contains `only`) and the MANIFEST."""
-    truth = load_truth()
+    truth = campaign_truth()
     todo = [j for j in jobs(truth) if only is None or only in j["file"]]
     out_dir = str(out_dir)
     if workers > 1 and len(todo) > 1:

@@ -33,7 +33,7 @@ follows the Debye peak alpha(w_c) = alpha_p 2 x / (1 + x^2), x = w_c tau_h.
 The patch is round, so the same law acts in both rolling directions (the steer direction:
 the pipe's roll, and the drive direction), each with its own flat state.
 
-Two terms of the real robot that the campaign's robot has off (neutral: truth.yaml's campaign
+Two terms of the real robot that the test bed's own robot has off (neutral: truth.yaml's base
 values; the calibrated twin's `real_robot:` section sets them, docs/testbed.md):
 
 * the set flat's size (`patch(set_at_kpa=)`): the skin took its set while the robot stood at
@@ -60,7 +60,7 @@ def patch(weight_n: float, radius_m: float, p_kpa: float, set_tension_n_m: float
           set_at_kpa: float | None = None) -> dict:
     """Geometry and stiffness of the contact patch at gauge pressure p (SI units).
 
-    `set_at_kpa`: the pressure the skin took its set at (None: the current one, the campaign's
+    `set_at_kpa`: the pressure the skin took its set at (None: the current one, the test bed's own
     robot).  The flat crept into the skin over hours of standing; pumping the shell up for a
     test does not un-creep it within minutes, so the flat keeps the patch size of the pressure it
     was set at (a, beta, lift-off).  How much of it the skin holds against the membrane's pull

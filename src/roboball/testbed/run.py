@@ -55,7 +55,7 @@ def truth_spec(kind: str, p_kpa: float | None, truth: dict, extras=ALL_EXTRAS,
     if not stand and "shell" in extras:
         off_flat = release - robot.shell_rest_angle if kind == "shell_rock" and release is not None else 0.0
         systems += shell_truth_systems(truth, p_kpa, robot, off_flat)
-    # the steer motor's rotor behind its gear (0 in the campaign's robot): reflected inertia on the joint
+    # the steer motor's rotor behind its gear (0 in the test bed's own robot): reflected inertia on the joint
     rotor = float(truth.get("twin", {}).get("steer_rotor_inertia_kg_m2", 0.0))
     added = {"steer": rotor} if rotor else {}
     return SimSpec(kind=kind, contact=contact, friction=friction, friction_params=friction_params,
