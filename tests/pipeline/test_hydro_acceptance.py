@@ -15,10 +15,10 @@ TABLE = REPO / "paper_figures" / "table_hydro_tuned.csv"
 RESULTS = REPO / "results"
 
 
-# Not met on the membrane campaign (docs/testbed.md): at 6.9 kPa the recordings swing at 3.70 rad/s
-# and Drake's hydroelastic shell reaches 3.13 at the softest modulus that still holds the robot
-# (1e4 Pa, 138 mm deep; softer, past half its radius): -15.4%.  10.3 kPa: -8.4%; the others within 2.6%.
-NOT_MET = ("measured: 6.9 kPa omega_n 3.133 (Drake) vs 3.702 rad/s (recorded), -15.4%: no hydroelastic "
+# Not met on the twin's campaign (docs/modelling.md): its locked shell rocks at 3.67-4.31 rad/s and
+# Drake's hydroelastic shell reaches 3.16-3.17 at the softest modulus that still holds the robot
+# (1e4 Pa, 138 mm deep; softer, past half its radius): -14.0% to -26.5%, zeta within 0.4%.
+NOT_MET = ("measured: 6.9 kPa omega_n 3.167 (Drake) vs 4.307 rad/s (recorded), -26.5%: no hydroelastic "
            "shell that holds the robot is that stiff")
 
 
@@ -37,9 +37,10 @@ def test_tuned_hydroelastic_reproduces_the_recorded_shell_within_10_percent():
 
 def test_the_check_fails_on_a_miss_and_on_a_broken_interval():
     table = pd.read_csv(TABLE)
-    # the pressures that pass as committed, so each planted fault is the only failure
-    table = table[[not acceptance_failures(table.iloc[[i]]) for i in range(len(table))]].reset_index(drop=True)
-    assert len(table) >= 2
+    # the committed rows made to pass (Drake's values set to the recorded ones), so each planted
+    # fault is the only failure; the committed table itself fails (above)
+    table["zeta_drake"], table["omega_n_drake_rad_s"] = table.zeta_recorded, table.omega_n_recorded_rad_s
+    assert len(table) >= 2 and acceptance_failures(table) == []
     bad = table.copy()
     bad.loc[0, "omega_n_drake_rad_s"] = 1.11 * bad.loc[0, "omega_n_recorded_rad_s"]
     assert len(acceptance_failures(bad)) == 1
