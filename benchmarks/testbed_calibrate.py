@@ -36,7 +36,8 @@ its finished evaluations at no cost):
 * --report: the table (in sample, held out, before) to benchmarks/testbed_calibration.json.
 * shell_held (not in the default stages, not the twin): the `shell` fit again from the committed
   calibration, the shell log's pendulum let go from a hold (held at a joint angle, let go a lead
-  time before the shell: docs/testbed.md, the shell log's let-go) instead of hanging still.
+  time before the shell: docs/testbed.md, the shell log's let-go) instead of hanging still;
+  out_held_<log>: each log held out of it (`held_fold`).
 
 Nelder-Mead (SciPy, bounded) in scaled coordinates, --evals evaluations per fit (default 50).
 The committed JSON came from: --stages stand --evals 60; --stages shell --evals 120;
@@ -252,6 +253,8 @@ def run_stage(name: str, cache: Cache, evals: int) -> dict:
         names = SHELL_LAW + ("p_coupled", "p_shell", "held_joint", "lead")
         b = fit(cache, [SHELL, *COUPLED], names, {k: start[k] for k in STEER}, evals, name, start=start)
         out = {"theta": b["theta"], "in_sample": rms_all(cache, b["theta"])}
+    elif name.startswith("out_held_"):
+        out = held_fold(name[len("out_held_"):], cache, evals)
     elif name == "out_" + STAND:
         shell = need("shell")["theta"]
         fixed = {k: v for k, v in shell.items() if k not in STEER}
@@ -279,6 +282,30 @@ def run_stage(name: str, cache: Cache, evals: int) -> dict:
     save(name, out)
     print(f"{name}: {out.get('in_sample') or out.get('held_out')} ({out['seconds']} s)", flush=True)
     return out
+
+
+def held_fold(left: str, cache: Cache, evals: int) -> dict:
+    """`left` held out of the shell_held fit.  Every fold starts from S0 and the hold's own start
+    (HELD: 1 rad, 0.3 s), not from a fit that saw the left-out log; the steer parameters are the
+    committed calibration's (the stand's).  The stand's fold refits them on the repeats with
+    shell_held's law; the shell log's fits the law on the repeats, then the log's own unknowns
+    (pressure, hold) on it alone; a repeat's fits the law, the hold and both pressures on the
+    others."""
+    PARAMS.update(HELD)
+    steer = {k: json.loads(OUT.read_text())["calibrated"][k] for k in STEER}
+    held = SHELL_LAW + ("p_coupled", "p_shell", "held_joint", "lead")
+    if left == STAND:
+        fixed = {k: v for k, v in need("shell_held")["theta"].items() if k not in STEER}
+        b = fit(cache, list(COUPLED), STEER, fixed, evals, "out_held_" + left)
+    elif left == SHELL:
+        b = fit(cache, list(COUPLED), SHELL_LAW + ("p_coupled",), steer, evals, "out_held_" + left)
+        b = fit(cache, [SHELL], ("p_shell", "held_joint", "lead"), b["theta"], max(12, evals // 3),
+                "out_held_" + left + " nuisance")
+    elif left in COUPLED:
+        b = fit(cache, [SHELL, *[c for c in COUPLED if c != left]], held, steer, evals, "out_held_" + left)
+    else:
+        raise SystemExit(f"unknown log {left}")
+    return {"theta": b["theta"], "held_out": rms_all(cache, b["theta"], [left])[left]}
 
 
 def need(stage: str) -> dict:

@@ -8,7 +8,7 @@ import pytest
 from roboball.sim.scenarios import simulate
 from roboball.sim.spec import SimSpec
 from roboball.testbed.campaign import generate, jobs, ramp_release_s
-from roboball.testbed.physics import load_truth
+from roboball.testbed.physics import campaign_truth
 from roboball.testbed.run import ALL_EXTRAS, run_free
 
 from conftest import REPO
@@ -44,7 +44,7 @@ def test_manifest_lists_every_file_with_its_hash():
 def test_the_ramp_release_ground_truth_matches_the_committed_recordings():
     """ramp_release_s (used by benchmarks/ramp_release_audit.py) recomputes the let-go instant
     from the run's seed: the recorded drive rate is still before it and moving soon after."""
-    truth = load_truth()
+    truth = campaign_truth()
     for job in (j for j in jobs(truth) if j["kind"] == "ramp"):
         t_r = ramp_release_s(job["file"], truth)
         df = pd.read_csv(RAW / job["file"])
@@ -55,7 +55,7 @@ def test_the_ramp_release_ground_truth_matches_the_committed_recordings():
 
 def test_the_ramp_release_ground_truth_is_not_any_instant_of_the_hold():
     """The checks above have power: a release drawn from another run's seed fails them."""
-    truth = load_truth()
+    truth = campaign_truth()
     ramps = [j["file"] for j in jobs(truth) if j["kind"] == "ramp"]
     failures = 0
     for a, b in zip(ramps, ramps[1:] + ramps[:1]):
