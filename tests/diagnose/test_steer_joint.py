@@ -139,16 +139,36 @@ def test_real_shell_log_of_unrecorded_steer_setting_is_the_free_pendulum_with_st
         json.dumps(d.steer_settings))
 
 
-@pytest.mark.slow       # a campaign shell release, both steer settings: about 2 min
-def test_a_locked_steer_release_of_unrecorded_setting_is_reported_locked():
-    """The test bed's shell releases are made with the steering locked (its membrane shell, not any
-    fitted form): told the setting is unknown, the diagnosis keeps the locked baseline, since
-    the free pendulum's does not predict the held-out data better."""
-    from conftest import REPO
-    d, js = diagnose(REPO / "raw_data" / "shell_rock" / "shell_rock_20.7kpa_r1.csv", steer_joint="unknown")
+@pytest.mark.slow       # a test-bed shell release, both steer settings: about 2 min
+def test_a_locked_steer_release_of_unrecorded_setting_is_reported_locked(tmp_path):
+    """The test bed's own robot's shell releases are made with the steering locked (its membrane
+    shell, not any fitted form): told the setting is unknown, the diagnosis keeps the locked
+    baseline, since the free pendulum's does not predict the held-out data better.  (The
+    campaign's file of the same name, until it was the twin's.)"""
+    from roboball.testbed.campaign import jobs, make_file
+    from roboball.testbed.physics import load_truth
+    truth = load_truth()
+    job = next(j for j in jobs(truth) if j["file"].endswith("shell_rock_20.7kpa_r1.csv"))
+    make_file(job, str(tmp_path), truth)
+    d, js = diagnose(tmp_path / job["file"], steer_joint="unknown")
     assert "steering locked" in js["baseline"]["description"]
     assert "reported: locked" in d.prep.notes[-1]
     assert d.steer_settings.keys() == {"locked", "free"}
+
+
+# Not met on the twin's campaign (docs/diagnosis.md, "A shell release with the pendulum free"): its
+# clamped releases are read as free, decisively: at 20.7 kPa held-out 0.0050 rad free against 0.0088
+# locked (p = 1e-11), at 6.9 kPa 0.0067 against 0.0131.
+TWIN_LOCKED = ("measured: the twin's clamped 20.7 kPa release reads free (held-out 0.0050 against 0.0088 rad locked): "
+               "the free pendulum with a stiffness and a damping mimics the twin's shell better than any locked set")
+
+
+@pytest.mark.slow       # a campaign shell release, both steer settings: about 1 min
+@pytest.mark.xfail(strict=True, reason=TWIN_LOCKED)
+def test_the_twins_clamped_shell_release_of_unrecorded_setting_is_reported_locked():
+    from conftest import REPO
+    d, js = diagnose(REPO / "raw_data" / "shell_rock" / "shell_rock_20.7kpa_r1.csv", steer_joint="unknown")
+    assert "reported: locked" in d.prep.notes[-1]
 
 
 @pytest.mark.slow       # Drake releases and a diagnosis both ways: 1-2 min each
