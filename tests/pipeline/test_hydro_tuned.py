@@ -68,3 +68,17 @@ def test_the_coupled_test_runs_the_calibrated_shell_only_inside_its_calibrated_p
     md = table_markdown(table, summary)
     assert "(beyond the shell releases' pressures: the shell laws extrapolated)." in md
     assert "Not run: `hydro_tuned`, the repeats' fitted pressures 14.2 kPa lie outside its calibrated 6.9-13.8 kPa." in md
+
+
+def test_fig_s2_names_a_model_it_could_not_run_under_its_title(tmp_path, monkeypatch):
+    """A model the coupled stage left out is said in the figure too, not only in the table."""
+    import roboball.figures.style as style
+    from roboball.figures.coupled import plot
+    seen = {}
+    monkeypatch.setattr(style, "save", lambda fig, out: seen.update(title=fig.texts[-1].get_text()))
+    traces = pd.DataFrame([{"model": m, "repeat": "rep_1", "time_s": t, "pipe_angle_rad": 0.1 * t,
+                            "steer_angle_rad": -0.1 * t} for m in ("recording", "injected") for t in (0.0, 0.5, 1.0)])
+    plot(traces, pd.DataFrame(), str(tmp_path / "s2.png"), left_out={"hydro_tuned": "fitted pressures outside it"})
+    assert seen["title"].endswith("\nnot run: hydroelastic, calibrated (Fig. S3): fitted pressures outside it")
+    plot(traces, pd.DataFrame(), str(tmp_path / "s2.png"))
+    assert seen["title"].startswith("Fig. S2") and "not run" not in seen["title"]

@@ -30,10 +30,10 @@ def count_word(n: int) -> str:
 
 
 def plot(traces: pd.DataFrame, table: pd.DataFrame, out_png: str, campaign: str = "",
-         pressure_free: bool = False) -> None:
+         pressure_free: bool = False, left_out: dict | None = None) -> None:
     """Two rows (pipe angle, steer angle) by one column per repeat; PNG + PDF.  `campaign` names
     where the repeats come from in the title; `pressure_free`: the shell laws did not depend on
-    pressure, so no pressure was fitted."""
+    pressure, so no pressure was fitted; `left_out` ({model: why}) is said under the title."""
     from roboball.figures.style import plt, save
 
     repeats = list(dict.fromkeys(traces.repeat))
@@ -61,6 +61,8 @@ def plot(traces: pd.DataFrame, table: pd.DataFrame, out_png: str, campaign: str 
     where = f" of {campaign}" if campaign else ""
     how = ("shell laws held at the campaign's shell releases; pressure not fitted" if pressure_free
            else "pressure models at each held-out repeat's fold pressure")
+    # a model the stage could not run is named, not silently missing
+    not_run = "".join(f"\nnot run: {label(m)}: {why}" for m, why in (left_out or {}).items())
     fig.suptitle(f"Fig. S2: coupled steer test, {count_word(n)} real repeats{where} against every shell model "
-                 f"({how})", fontsize=10)
+                 f"({how}){not_run}", fontsize=10)
     save(fig, out_png)

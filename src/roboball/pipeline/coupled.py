@@ -201,7 +201,7 @@ def steer_coupled(recordings: list, regression: str, friction_steer: str, out_js
         "friction_steer": friction,
         "left_out": left_out,
     }
-    plot(traces, table, out_png, campaign=campaign, pressure_free=laws.pressure_free)
+    plot(traces, table, out_png, campaign=campaign, pressure_free=laws.pressure_free, left_out=left_out)
     write_csv_atomic(table, table_csv)
     write_text_atomic(table_md, table_markdown(table, summary))
     write_csv_atomic(traces, out_csv)
