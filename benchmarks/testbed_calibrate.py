@@ -101,6 +101,8 @@ HELD_START = {"held_joint": 1.082, "lead": 0.3739, "set_tension": 7318.0, "loss_
               "imbalance": -0.0109, "p_shell": 5.064}
 STEER = ("F_c", "F_s", "v_s", "viscous", "rotor")
 SHELL_LAW = ("set_tension", "loss_peak", "excess", "imbalance")
+# what the shell_held fit and its folds free: the shell's law, both pressures and the hold
+HELD_NAMES = SHELL_LAW + ("p_coupled", "p_shell", "held_joint", "lead")
 SET_AT_KPA = 8.5
 
 
@@ -250,8 +252,7 @@ def run_stage(name: str, cache: Cache, evals: int) -> dict:
         PARAMS.update(HELD)
         cal = json.loads(OUT.read_text())["calibrated"]
         start = {**{k: v for k, v in cal.items() if k != "steer_offset_shell"}, **HELD_START}
-        names = SHELL_LAW + ("p_coupled", "p_shell", "held_joint", "lead")
-        b = fit(cache, [SHELL, *COUPLED], names, {k: start[k] for k in STEER}, evals, name, start=start)
+        b = fit(cache, [SHELL, *COUPLED], HELD_NAMES, {k: start[k] for k in STEER}, evals, name, start=start)
         out = {"theta": b["theta"], "in_sample": rms_all(cache, b["theta"])}
     elif name.startswith("out_held_"):
         out = held_fold(name[len("out_held_"):], cache, evals)
@@ -293,7 +294,6 @@ def held_fold(left: str, cache: Cache, evals: int) -> dict:
     others."""
     PARAMS.update(HELD)
     steer = {k: json.loads(OUT.read_text())["calibrated"][k] for k in STEER}
-    held = SHELL_LAW + ("p_coupled", "p_shell", "held_joint", "lead")
     if left == STAND:
         fixed = {k: v for k, v in need("shell_held")["theta"].items() if k not in STEER}
         b = fit(cache, list(COUPLED), STEER, fixed, evals, "out_held_" + left)
@@ -302,7 +302,7 @@ def held_fold(left: str, cache: Cache, evals: int) -> dict:
         b = fit(cache, [SHELL], ("p_shell", "held_joint", "lead"), b["theta"], max(12, evals // 3),
                 "out_held_" + left + " nuisance")
     elif left in COUPLED:
-        b = fit(cache, [SHELL, *[c for c in COUPLED if c != left]], held, steer, evals, "out_held_" + left)
+        b = fit(cache, [SHELL, *[c for c in COUPLED if c != left]], HELD_NAMES, steer, evals, "out_held_" + left)
     else:
         raise SystemExit(f"unknown log {left}")
     return {"theta": b["theta"], "held_out": rms_all(cache, b["theta"], [left])[left]}

@@ -156,12 +156,12 @@ def calibrated_shell(hydro_fit: str, reps, pressure, laws) -> tuple[tuple, dict]
         return (), {}
     from roboball.pipeline.simulation import in_tuned_range, tuned_at, tuned_range
     from roboball.sim.coupled import calibrated
+    tuned = tuned_range(hydro_fit)
     used = [pressure.folds.get(r.name, pressure.p_kpa) for r in reps]
-    outside = sorted({round(float(p), 1) for p in used if not laws.pressure_free and not in_tuned_range(hydro_fit, p)})
+    outside = sorted({round(float(p), 1) for p in used if not laws.pressure_free and not in_tuned_range(p, tuned)})
     if outside:
-        lo, hi = tuned_range(hydro_fit)
         return (), {"hydro_tuned": f"the repeats' fitted pressures {', '.join(f'{p:g}' for p in outside)} kPa lie "
-                                   f"outside its calibrated {lo:g}-{hi:g} kPa"}
+                                   f"outside its calibrated {tuned[0]:g}-{tuned[1]:g} kPa"}
     return (calibrated(lambda p: tuned_at(hydro_fit, p)),), {}
 
 

@@ -39,7 +39,7 @@ def tuned_at(hydro_fit_csv: str, p_kpa: float) -> tuple[float, float]:
         raise RoboballError("contact hydro_tuned needs the hydroelastic calibration (--hydro-fit)")
     f = pd.read_csv(hydro_fit_csv).sort_values("pressure_kpa")
     ps = f.pressure_kpa.to_numpy()
-    if not in_tuned_range(hydro_fit_csv, p_kpa):
+    if not in_tuned_range(p_kpa, (ps.min(), ps.max())):
         raise RoboballError(f"{hydro_fit_csv}: pressure {p_kpa:g} kPa is outside the calibrated "
                             f"{ps.min():g}-{ps.max():g} kPa")
     return tuple(float(np.exp(np.interp(p_kpa, ps, np.log(f[c].to_numpy()))))
@@ -52,8 +52,9 @@ def tuned_range(hydro_fit_csv: str) -> tuple[float, float]:
     return float(ps.min()), float(ps.max())
 
 
-def in_tuned_range(hydro_fit_csv: str, p_kpa: float) -> bool:
-    lo, hi = tuned_range(hydro_fit_csv)
+def in_tuned_range(p_kpa: float, tuned: tuple[float, float]) -> bool:
+    """Whether p (kPa) lies within `tuned` (tuned_range's (lowest, highest)), to rounding."""
+    lo, hi = tuned
     return lo - 1e-6 <= p_kpa <= hi + 1e-6
 
 
