@@ -1,8 +1,17 @@
 """The RK4 step of a friction fit, chosen at the least-squares optimum.
 
-The largest of 5, 2.5, 1.25, 0.625 ms whose integration error (change against half the step)
-shifts no fitted parameter by more than 0.2 of its standard deviation: a per-sample criterion
-is not enough, a systematic error adds up over thousands of samples.
+The largest of 5, 2.5, 1.25, 0.625, 0.3125 and 0.15625 ms whose integration error (change
+against half the step) shifts no fitted parameter by more than 0.2 of its standard deviation: a
+per-sample criterion is not enough, a systematic error adds up over thousands of samples.
+
+The two smallest steps are for quiet logs.  The implicit stiction step decides at each step
+whether the joint sticks, so the likelihood jumps where a parameter moves a stick from one step
+to the next: on the twin's steer-stand log (0.8 mrad noise) with Coulomb + viscous friction the
+log-likelihood jitters by 1.0-1.2 (sd about a quadratic over +-2 posterior sd of mu_s, mu_d, c)
+at 0.625 ms, 0.5-0.9 at 0.3125 ms and 0.2-0.35 at 0.15625 ms.  At 0.625 ms (then the smallest
+step, failing the tolerance: 0.52 sd) the chain mixed at acceptance 0.14-0.16 and did not
+converge in 6000 steps (tau 176); at 0.15625 ms (0.08 sd) it converged at 1200 steps (tau 7,
+acceptance 0.32), in 77 s against 91 s for the 3000 capped steps before.
 
 Not 10 ms: the step is judged at the optimum only, and at 10 ms the regularised stiction band
 of eq. 2 (|v| < v_tol = 0.01 rad/s, slope mu_s / v_tol) is stepped over.  On the real steer log
@@ -17,7 +26,7 @@ import numpy as np
 
 from roboball.identify.friction.problem import FrictionProblem
 
-DT_CANDIDATES = (5e-3, 2.5e-3, 1.25e-3, 6.25e-4)
+DT_CANDIDATES = (5e-3, 2.5e-3, 1.25e-3, 6.25e-4, 3.125e-4, 1.5625e-4)
 DT_TOLERANCE = 0.2            # integration-induced parameter shift allowed, in posterior sd
 
 
