@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from roboball.config import CONFIG_DIR, load_yaml
+from roboball.errors import RoboballError
 from roboball.identify.friction.fit import fit_segments
 from roboball.identify.friction.lsq import least_squares_fit
 from roboball.identify.friction.priors import law_fixed, law_priors, stand_priors
@@ -51,7 +52,7 @@ def test_a_quiet_stand_log_gets_a_step_that_neither_biases_nor_roughens_the_post
     across a step: measured along mu_d, c, delta_i and rest_offset its jitter about a quadratic is
     1.0-1.7 at 0.625 ms (then the smallest step, whose error shifted a parameter by 0.52 sd, over
     the 0.2 allowed) and 0.23-0.64 at the 0.156 ms now chosen (0.08 sd).  At 0.625 ms the chain
-    ran at acceptance 0.14 and did not converge in 6000 steps; now it converges in about 1200."""
+    ran at acceptance 0.14 and did not converge in 6000 steps; now it converges in 1200-1400."""
     problem = _problem(quiet_segments)
     lsq = least_squares_fit(problem, seed=0)
     dt, info = choose_dt(problem, lsq)
@@ -73,3 +74,35 @@ def test_the_campaigns_quiet_coulomb_viscous_chain_converges(quiet_segments, tmp
     c = res["convergence"]
     assert c["converged"] and c["chain_over_tau"] >= fr["autocorr_multiple"], (c, res["notes"])
     assert res["notes"] == [], res["notes"]
+
+
+def test_the_adaptation_runs_at_its_own_step_and_production_at_the_fits(tmp_path):
+    """With an adaptation step the stored log-probabilities are that step's up to the end of the
+    adaptation and the fit's own after it (recomputed where production starts, so that no
+    Metropolis ratio mixes the two), the problem keeps its step, and a chain stopped at the
+    switch resumes into the uninterrupted one step for step."""
+    from test_friction_fit import synthetic_stand
+
+    from roboball.identify.friction.sampler import sample_posterior
+
+    segs = segments_from_arrays(synthetic_stand("coulomb_viscous", {"mu_s": 0.5, "mu_d": 0.4, "c": 0.2}, seed=5,
+                                                angles=(0.6, -0.5), duration=2.0))
+    problem = FrictionProblem("steer_stand", LAW, segs, law_priors("steer", LAW), fixed=law_fixed("steer", LAW),
+                              dt=1.25e-3)
+    lsq = least_squares_fit(problem, seed=0)
+    kw = dict(seed=4, n_walkers=16, autocorr_multiple=1e6, chunk=5, min_steps=5, adapt_schedule=(10, 20),
+              adapt_dt=5e-3)
+    full = sample_posterior(problem, lsq, tmp_path / "full.h5", max_steps=30, **kw)
+    assert problem.dt == 1.25e-3
+    chain, lp = full["chain"], full["log_prob"]
+    for step, dt in ((19, 5e-3), (20, 1.25e-3), (29, 1.25e-3)):
+        problem.dt = dt
+        assert np.allclose(problem.log_prob(chain[step]), lp[step], rtol=0, atol=1e-9), step
+    problem.dt = 1.25e-3
+    assert not np.allclose(problem.log_prob(chain[19]), lp[19])      # the two steps' posteriors differ here
+    sample_posterior(problem, lsq, tmp_path / "part.h5", max_steps=20, **kw)
+    resumed = sample_posterior(problem, lsq, tmp_path / "part.h5", max_steps=30, **kw)
+    assert resumed["resumed_from"] == 20 and np.array_equal(resumed["chain"], chain)
+    # a chain adapted at another step is another fit's: refused, not continued
+    with pytest.raises(RoboballError, match="different fit"):
+        sample_posterior(problem, lsq, tmp_path / "full.h5", max_steps=40, **{**kw, "adapt_dt": 2.5e-3})

@@ -42,7 +42,7 @@ from roboball.identify.friction.problem import RELEASE_SHIFT_HALF_WIDTH_S, Frict
 from roboball.identify.friction.sampler import sample_posterior
 from roboball.identify.friction.segments import JOINT_OF_KIND, KIND_OF_JOINT, Segment, segments_from_arrays
 from roboball.identify.friction.summary import summarize
-from roboball.identify.friction.timestep import DT_CANDIDATES, DT_TOLERANCE, choose_dt
+from roboball.identify.friction.timestep import DT_CANDIDATES, DT_TOLERANCE, adaptation_dt, choose_dt
 
 
 def fit_segments(kind: str, law: str, segments: Sequence, chain_path: str | os.PathLike,
@@ -85,9 +85,12 @@ def fit_segments(kind: str, law: str, segments: Sequence, chain_path: str | os.P
     walkers = max(int(walkers), 2 * problem.ndim + 2)
     post = sample_posterior(problem, lsq, chain_path, seed=seed, n_walkers=walkers,
                             autocorr_multiple=autocorr_multiple, max_steps=max_steps, chunk=chunk,
-                            moves=moves, min_steps=min_steps, stale=stale, code=code)
+                            moves=moves, min_steps=min_steps, stale=stale, code=code,
+                            adapt_dt=adaptation_dt(problem.dt) if moves is None else None)
     res, samples = summarize(problem, lsq, post, seed=seed, step_error=dt_info["max_error_rad"])
     res["integration"]["parameter_shift_sd"] = dt_info["max_shift_sd"]
+    if moves is None and adaptation_dt(problem.dt) != problem.dt:
+        res["integration"]["adaptation_dt_s"] = adaptation_dt(problem.dt)     # the proposal's samples only
     if dt_info["max_shift_sd"] > DT_TOLERANCE:
         res["notes"].append(f"integration error {dt_info['max_error_rad']:.2g} rad shifts a parameter by "
                             f"{dt_info['max_shift_sd']:.2g} posterior sd at dt = {problem.dt:g} s (tolerance "

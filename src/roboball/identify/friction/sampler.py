@@ -7,7 +7,8 @@ least-squares Laplace approximation; differential-evolution moves adapt, then an
 proposal (multivariate t fitted to the samples so far, refitted at each stage of
 :data:`ADAPT_SCHEDULE`, then frozen) mixed with DE moves samples
 (:mod:`roboball.identify.friction.moves`).  All walkers of a proposal are simulated in
-one vectorised call (``vectorize=True``).  The chain is stored in emcee's HDF5
+one vectorised call (``vectorize=True``).  The adaptation may run at a coarser RK4 step than the
+fit's (``adapt_dt``: its samples only shape the proposal); production runs at the fit's step.  The chain is stored in emcee's HDF5
 layout, a chunk of steps at a time (:mod:`roboball.identify.friction.backend`); an interrupted
 run resumes from the stored chain and its random state (:mod:`roboball.identify.friction.chain`).
 
@@ -59,6 +60,7 @@ class _Plan:
     min_steps: int
     moves: object          # the given moves, or None: adapt along `schedule`
     schedule: tuple        # adaptation step counts, () with given moves
+    adapt_dt: float | None = None   # the RK4 step of the adaptation phase (None: the problem's own)
 
     @property
     def adaptive(self) -> bool:
@@ -81,7 +83,7 @@ class _Plan:
 
 
 def _plan(problem: FrictionProblem, n_walkers, autocorr_multiple, max_steps, chunk, moves, min_steps,
-          adapt_schedule: Sequence[int], stale: str) -> _Plan:
+          adapt_schedule: Sequence[int], stale: str, adapt_dt: float | None = None) -> _Plan:
     if problem.ndim * 2 > n_walkers:
         raise RoboballError(f"friction fit: {n_walkers} walkers for {problem.ndim} parameters; emcee needs at "
                             f"least {2 * problem.ndim}")
@@ -91,7 +93,12 @@ def _plan(problem: FrictionProblem, n_walkers, autocorr_multiple, max_steps, chu
         raise RoboballError(f"friction fit: adaptation schedule {schedule} must be increasing step counts >= 2")
     if stale not in ("refuse", "restart"):
         raise ValueError(f"stale must be 'refuse' or 'restart', not {stale!r}")
-    return _Plan(n_walkers, autocorr_multiple, max_steps, chunk, min_steps, moves, schedule)
+    if adapt_dt is not None and (not adaptive or not adapt_dt > 0):
+        raise RoboballError(f"friction fit: an adaptation step ({adapt_dt}) needs the adaptive sampler and a "
+                            "positive step")
+    if adapt_dt == problem.dt:
+        adapt_dt = None
+    return _Plan(n_walkers, autocorr_multiple, max_steps, chunk, min_steps, moves, schedule, adapt_dt)
 
 
 def _chain_meta(problem: FrictionProblem, plan: _Plan, seed: int, code: str | None) -> dict:
@@ -100,7 +107,7 @@ def _chain_meta(problem: FrictionProblem, plan: _Plan, seed: int, code: str | No
             "kind": problem.kind, "n_walkers": int(plan.n_walkers), "seed": int(seed), "dt": problem.dt,
             "sampler": f"adaptive-independence-t/{'-'.join(map(str, plan.schedule))}" if plan.adaptive
             else "given-moves",
-            "code": code}
+            "code": code, **({"adapt_dt": plan.adapt_dt} if plan.adapt_dt is not None else {})}
 
 
 def _initial_walkers(problem: FrictionProblem, lsq: dict, n_walkers: int, rng: np.random.Generator) -> np.ndarray:
@@ -180,24 +187,36 @@ def _measure(backend, n: int, plan: _Plan) -> tuple[int, np.ndarray, bool]:
 
 def _run(problem: FrictionProblem, backend, plan: _Plan, sampler, stage: int, initial) -> tuple[int, np.ndarray, bool]:
     """Extend the chain chunk by chunk (a new sampler at each adaptation stage) until it has
-    converged or reached max_steps; returns (burn-in, tau, converged)."""
+    converged or reached max_steps; returns (burn-in, tau, converged).  With ``plan.adapt_dt`` the
+    adaptation phase runs at that step and production at the problem's own, on which the walkers'
+    log-probabilities are recomputed where production starts."""
+    fine_dt = problem.dt
     converged = False
     burn, tau = 0, np.full(problem.ndim, np.nan)
-    while True:
-        n = backend.iteration
-        if n >= plan.min_steps:
-            burn, tau, converged = _measure(backend, n, plan)
-            if converged:
+    try:
+        while True:
+            n = backend.iteration
+            if n >= plan.min_steps:
+                burn, tau, converged = _measure(backend, n, plan)
+                if converged:
+                    break
+            if n >= plan.max_steps:
                 break
-        if n >= plan.max_steps:
-            break
-        if plan.stage_of(n) != stage:
-            stage = plan.stage_of(n)
-            sampler = _make_sampler(problem, backend, plan, stage)
-        state = initial if n == 0 else None
-        sampler.run_mcmc(state, plan.target(n, stage) - n, progress=False)
-        backend.flush()
-        initial = None
+            if plan.stage_of(n) != stage:
+                stage = plan.stage_of(n)
+                sampler = _make_sampler(problem, backend, plan, stage)
+            state = initial if n == 0 else None
+            if plan.adapt_dt is not None:
+                problem.dt = plan.adapt_dt if n < plan.adapt else fine_dt
+                if n == plan.adapt:       # the walkers' log-probabilities were the adaptation step's
+                    import emcee
+                    last = backend.get_last_sample()
+                    state = emcee.State(last.coords, random_state=last.random_state)
+            sampler.run_mcmc(state, plan.target(n, stage) - n, progress=False)
+            backend.flush()
+            initial = None
+    finally:
+        problem.dt = fine_dt
     return burn, tau, converged
 
 
@@ -205,7 +224,7 @@ def sample_posterior(problem: FrictionProblem, lsq: dict, chain_path: str | os.P
                      n_walkers: int = 32, autocorr_multiple: float = 50.0, max_steps: int = 20000,
                      chunk: int = 50, moves=None, min_steps: int = 100,
                      adapt_schedule: Sequence[int] = ADAPT_SCHEDULE, stale: str = "refuse",
-                     code: str | None = None) -> dict:
+                     code: str | None = None, adapt_dt: float | None = None) -> dict:
     """Run (or resume) the emcee chain in `chain_path` until converged or `max_steps`.
 
     A stored chain is resumed only if it belongs to this fit: the same data, priors, robot facts,
@@ -229,6 +248,10 @@ def sample_posterior(problem: FrictionProblem, lsq: dict, chain_path: str | os.P
             chain so that a chain sampled by other code is not continued.  The pipeline passes
             the source fingerprint of roboball.identify.friction.fit (roboball.pipeline.codedeps);
             None records no code identity.
+        adapt_dt: the RK4 step of the adaptation phase, when it differs from the problem's own
+            (:func:`~roboball.identify.friction.timestep.adaptation_dt`): its samples only shape
+            the proposal, production runs at the problem's step, so the posterior is that
+            step's.  None: the problem's step throughout.
 
     Returns:
         ``chain`` (steps, walkers, ndim) in sampling coordinates, ``log_prob``, ``burn``, ``tau``,
@@ -239,7 +262,8 @@ def sample_posterior(problem: FrictionProblem, lsq: dict, chain_path: str | os.P
 
     chain_path = Path(chain_path)
     chain_path.parent.mkdir(parents=True, exist_ok=True)
-    plan = _plan(problem, n_walkers, autocorr_multiple, max_steps, chunk, moves, min_steps, adapt_schedule, stale)
+    plan = _plan(problem, n_walkers, autocorr_multiple, max_steps, chunk, moves, min_steps, adapt_schedule, stale,
+                 adapt_dt)
     meta = _chain_meta(problem, plan, seed, code)
     resumed_from = steps_to_resume(chain_path, meta, stale)
     backend = ChunkedHDFBackend(str(chain_path), name="mcmc")  # checkpoint: resumable emcee chain, checked by fingerprint on reuse
