@@ -8,9 +8,10 @@ proposal (multivariate t fitted to the samples so far, refitted at each stage of
 :data:`ADAPT_SCHEDULE`, then frozen) mixed with DE moves samples
 (:mod:`roboball.identify.friction.moves`).  All walkers of a proposal are simulated in
 one vectorised call (``vectorize=True``).  The adaptation may run at a coarser RK4 step than the
-fit's (``adapt_dt``: its samples only shape the proposal); production runs at the fit's step.  The chain is stored in emcee's HDF5
-layout, a chunk of steps at a time (:mod:`roboball.identify.friction.backend`); an interrupted
-run resumes from the stored chain and its random state (:mod:`roboball.identify.friction.chain`).
+fit's (``adapt_dt``: its samples only shape the proposal); production runs at the fit's step.
+The chain is stored in emcee's HDF5 layout, a chunk of steps at a time
+(:mod:`roboball.identify.friction.backend`); an interrupted run resumes from the stored chain
+and its random state (:mod:`roboball.identify.friction.chain`).
 
 Convergence is measured, not assumed: the chain runs in chunks until its post-burn-in length
 is at least ``autocorr_multiple`` (default 50) times the integrated autocorrelation time of
