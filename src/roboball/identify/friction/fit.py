@@ -83,14 +83,15 @@ def fit_segments(kind: str, law: str, segments: Sequence, chain_path: str | os.P
     if not sample_angles:
         problem.fix_releases(lsq["x"][problem.n_phys:])
     walkers = max(int(walkers), 2 * problem.ndim + 2)
+    adapt_dt = adaptation_dt(problem.dt) if moves is None else problem.dt
     post = sample_posterior(problem, lsq, chain_path, seed=seed, n_walkers=walkers,
                             autocorr_multiple=autocorr_multiple, max_steps=max_steps, chunk=chunk,
                             moves=moves, min_steps=min_steps, stale=stale, code=code,
-                            adapt_dt=adaptation_dt(problem.dt) if moves is None else None)
+                            adapt_dt=adapt_dt)
     res, samples = summarize(problem, lsq, post, seed=seed, step_error=dt_info["max_error_rad"])
     res["integration"]["parameter_shift_sd"] = dt_info["max_shift_sd"]
-    if moves is None and adaptation_dt(problem.dt) != problem.dt:
-        res["integration"]["adaptation_dt_s"] = adaptation_dt(problem.dt)     # the proposal's samples only
+    if adapt_dt != problem.dt:
+        res["integration"]["adaptation_dt_s"] = adapt_dt     # the proposal's samples only
     if dt_info["max_shift_sd"] > DT_TOLERANCE:
         res["notes"].append(f"integration error {dt_info['max_error_rad']:.2g} rad shifts a parameter by "
                             f"{dt_info['max_shift_sd']:.2g} posterior sd at dt = {problem.dt:g} s (tolerance "

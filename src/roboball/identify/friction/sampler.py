@@ -94,11 +94,11 @@ def _plan(problem: FrictionProblem, n_walkers, autocorr_multiple, max_steps, chu
         raise RoboballError(f"friction fit: adaptation schedule {schedule} must be increasing step counts >= 2")
     if stale not in ("refuse", "restart"):
         raise ValueError(f"stale must be 'refuse' or 'restart', not {stale!r}")
+    if adapt_dt == problem.dt:
+        adapt_dt = None
     if adapt_dt is not None and (not adaptive or not adapt_dt > 0):
         raise RoboballError(f"friction fit: an adaptation step ({adapt_dt}) needs the adaptive sampler and a "
                             "positive step")
-    if adapt_dt == problem.dt:
-        adapt_dt = None
     return _Plan(n_walkers, autocorr_multiple, max_steps, chunk, min_steps, moves, schedule, adapt_dt)
 
 

@@ -7,13 +7,13 @@ per-sample criterion is not enough, a systematic error adds up over thousands of
 The two smallest steps are for quiet logs.  The implicit stiction step decides at each step
 whether the joint sticks, so the likelihood jumps where a parameter moves a stick from one step
 to the next: on the twin's steer-stand log (0.8 mrad noise) with Coulomb + viscous friction the
-log-likelihood jitters by 1.0-1.2 (sd about a quadratic over +-2 posterior sd of mu_s, mu_d, c)
-at 0.625 ms, 0.5-0.9 at 0.3125 ms and 0.2-0.35 at 0.15625 ms.  At 0.625 ms (then the smallest
-step, failing the tolerance: 0.52 sd) the chain mixed at acceptance 0.14-0.16 and did not
-converge in 6000 steps (tau 176); at 0.15625 ms (0.08 sd) it converged at 1200 steps (tau 7,
-acceptance 0.32).  The sampler's adaptation phase runs no finer than 0.625 ms
-(:func:`adaptation_dt`): 1250-1400 steps (tau 8-11) in 42-55 s alone, against 55 s for the
-3000 capped steps before.
+log-likelihood jitters by 1.0-1.7 (sd about a quadratic over +-2 Laplace sd of mu_d, c, delta_i,
+rest_offset; tests/identify/test_timestep.py) at 0.625 ms, 0.4-0.9 at 0.3125 ms and 0.23-0.64
+at 0.15625 ms.  At 0.625 ms (then the smallest step, failing the tolerance: 0.52 sd) the chain
+mixed at acceptance 0.14-0.16 and did not converge in 6000 steps (tau 176); at 0.15625 ms
+(0.08 sd) it converged at 1200 steps (tau 7, acceptance 0.32).  The sampler's adaptation phase
+runs no finer than 0.625 ms (:func:`adaptation_dt`): 1250-1400 steps (tau 8-11) in 42-55 s
+alone, against 55 s for the 3000 capped steps before.
 
 Not 10 ms: the step is judged at the optimum only, and at 10 ms the regularised stiction band
 of eq. 2 (|v| < v_tol = 0.01 rad/s, slope mu_s / v_tol) is stepped over.  On the real steer log
@@ -38,7 +38,7 @@ def adaptation_dt(dt: float) -> float:
     0.625 ms, 0.625 ms below it.  The adaptation's samples only shape the sampler's proposal
     (production runs at `dt`), and at 0.625 ms they land where the posterior lies (on the twin's
     quiet stand log the medians within 0.2 sd of the 0.156 ms chain's).  The quiet log's chain
-    then converges at 1250-1400 steps in 42-53 s alone, against 1200 steps in 74-77 s at 0.156 ms
+    then converges at 1250-1400 steps in 42-55 s alone, against 1200 steps in 74-77 s at 0.156 ms
     throughout."""
     return max(float(dt), ADAPT_DT_MIN)
 
