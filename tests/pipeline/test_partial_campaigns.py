@@ -64,7 +64,7 @@ def dry_run(raw: Path, work: Path) -> tuple[dict, str]:
 
 SHELL_RULES = ("shell_regression", "shell_sim", "sweep_sim", "fig10", "fig11", "hydro_grid", "hydro_fit",
                "figS3_hydro_calibration", "figS1_deflating_ramp", "replay")
-RAMP_RULES = ("ramp_sim", "diagnose_ramp_pressure", "diagnose_ramp_heldout", "ramp_diagnosed", "fig13_14")
+RAMP_RULES = ("ramp_sim", "diagnose_ramp", "ramp_diagnosed", "fig13_14")
 CASES = {  # case -> (manifest filter, rules that must not run, rules that must, a line of the plan)
     "no steer stand": ({"drop": ("steer_stand",)}, ("friction_comparison",), ("ramp_sim", "fig10", "table1"),
                        "skip  Fig. 7 and Table I rows: steer friction of 'c': no steer_stand recording in 'c'"),

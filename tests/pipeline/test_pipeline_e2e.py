@@ -149,13 +149,11 @@ def test_touching_one_ramp_log_reruns_only_its_jobs(built):
         planned = _planned(built)
         assert planned.get("ingest") == 1
         assert planned.get("ramp_sim") == 3          # one per contact model (each runs every ramp run)
-        assert planned.get("diagnose_ramp_pressure") == 1   # the pooled diagnosis at 13.8 kPa ...
-        assert planned.get("diagnose_ramp_heldout") == 2    # ... and the held-out ones of the other two runs
+        assert planned.get("diagnose_ramp") == 1     # one job makes every ramp diagnosis, pooled and held out
         assert planned.get("ramp_diagnosed") == 1    # one job runs every diagnosed descent
         assert "diagnose" not in planned
-        assert set(planned) <= {"ingest", "ramp_sim", "diagnose_ramp_pressure", "diagnose_ramp_heldout",
-                                "ramp_diagnosed", "ramp_summary", "fig13_14", "uncertainty_report",
-                                "table_page", "all"}, planned      # table_page: the PME table's report page
+        assert set(planned) <= {"ingest", "ramp_sim", "diagnose_ramp", "ramp_diagnosed", "ramp_summary", "fig13_14",
+                                "uncertainty_report", "table_page", "all"}, planned      # table_page: the PME table's report page
     finally:
         log.write_bytes(original)                    # the old content again: nothing to redo
     assert _planned(built) == {}

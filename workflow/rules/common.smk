@@ -63,6 +63,11 @@ if _preload:
 # OpenBLAS kernel and thread, Numba for a generic CPU, libm's plain variants), so the results do
 # not depend on the CPU (roboball.pipeline.numerics; ROBOBALL_NUMERICS=native to opt out).
 os.environ.update(job_environment(os.environ))
+# Numba's parallel loops on one thread per job: Snakemake gives each job one core and runs as many
+# jobs as there are cores, and a second thread spinning at the loops' ends beside the other job
+# cost the ramp diagnoses 11% more CPU for the same bytes (rows are independent).  friction_fit
+# sets its own from its `threads`.
+os.environ["NUMBA_NUM_THREADS"] = "1"
 
 # Each rule's params carry CODE[stage]: a hash of the package source files the stage runs and,
 # when it reads them, of the robot facts (roboball.pipeline.codedeps).  Editing a friction law
@@ -124,8 +129,14 @@ PRIORS = load_yaml(os.path.join(CONFIG_DIR, "priors.yaml"))
 # diagnosis (a joint without a stand runs with Table I's values, and the plan says so).
 RAMP_FRICTION = CAMPAIGN.ramp_friction(config["friction"])
 
-# The ramp runs grouped by pressure, for the pooled diagnoses (diagnose.smk).
+# The ramp runs grouped by pressure, for the pooled diagnoses (diagnose.smk): out dir -> the runs
+# diagnosed together, all runs at each pressure, then each run's held-out set (the others there).
 RAMP_GROUPS = CAMPAIGN.ramp_groups()
+RAMP_DIAGNOSES = {**{f"results/diagnose/pressure/{g}": CAMPAIGN.runs_at(g) for g in RAMP_GROUPS},
+                  **{f"results/diagnose/heldout/{s}": CAMPAIGN.other_runs(s) for s in RAMP}}
+# what `roboball diagnose` writes in its out dir
+DIAGNOSIS_FILES = ("diagnosis.json", "predictions.csv", "report.md", "details.json", "overlay.png", "regimes.png",
+                   "windows.png")
 
 # Beyond the paper (issue 9, Fig. S1): the deflating ramp (config section deflating_ramp).
 DEFLATE = config.get("deflating_ramp", {})
@@ -267,11 +278,6 @@ def get_prior_json(wildcards):
     return json.dumps({wildcards.joint: {wildcards.law: joint[wildcards.law], "stand": joint["stand"]}}, sort_keys=True)
 
 
-def get_ramp_friction_args(wildcards, input):
-    """The ramp stages' friction flags: the Majd fits there are (Table I's values otherwise)."""
-    return " ".join(f"--friction-{j} {input[j]}" for j in ("steer", "drive") if j in RAMP_FRICTION)
-
-
 def get_hydro_fit(wildcards):
     """The calibration table, for the tuned hydroelastic model only."""
     return [HYDRO_TUNED] if wildcards.contact == "hydro_tuned" else []
@@ -289,16 +295,6 @@ def get_ramp_scales(wildcards):
 def _ingested(stems_):
     return {"csv": [f"results/ingest/{s}.csv" for s in stems_],
             "sidecars": [f"results/ingest/{s}.json" for s in stems_]}
-
-
-def get_runs_at_pressure(wildcards):
-    """The ingested ramp runs of one pressure group, diagnosed together."""
-    return _ingested(CAMPAIGN.runs_at(wildcards.group))
-
-
-def get_other_runs(wildcards):
-    """The ingested ramp runs whose pooled diagnosis scores run `stem` out of sample."""
-    return _ingested(CAMPAIGN.other_runs(wildcards.stem))
 
 
 ##### the batched rules' items (roboball stage NAME --each) #####
@@ -337,6 +333,13 @@ def get_ramp_sim_each(wildcards, input, output):
                    "posterior_draws": config["ramp"]["posterior_draws"], "seed": config["seed"],
                    "out_csv": pme, "out_trace": trace}
                   for c, r, pme, trace in zip(input.csv, input.releases, output.pme, output.trace)])
+
+
+def get_diagnose_ramp_each(wildcards, input, output):
+    """One diagnose-recording call per ramp diagnosis (RAMP_DIAGNOSES), with the Majd fits."""
+    friction = {f"friction_{j}": input[j] for j in ("steer", "drive") if j in RAMP_FRICTION}
+    return _each([{"recording": _ingested(runs)["csv"], "out_dir": d, **friction}
+                  for d, runs in RAMP_DIAGNOSES.items()])
 
 
 def get_ramp_diagnosed_each(wildcards, input, output):

@@ -2,10 +2,10 @@
 # point model as this pipeline calibrates it (point contact, the Majd friction fitted on the stand
 # logs), and the diagnosed model as a fourth contact model, scored out of sample.  A ramp run holds
 # one descent, so the runs at one pressure are diagnosed together, each a release of the pooled
-# fit whose held-out test leaves one whole run out: `diagnose_ramp_pressure` (all runs at a
-# pressure, for the report) and `diagnose_ramp_heldout` (all but one run, whose effects score that
-# run in `ramp_diagnosed`).  The real logs are diagnosed one by one against the contract's
-# baselines (`diagnose`).
+# fit whose held-out test leaves one whole run out: at each pressure all its runs (for the report,
+# results/diagnose/pressure/) and, for each run, all but that run (results/diagnose/heldout/,
+# whose effects score that run in `ramp_diagnosed`); rule `diagnose_ramp` makes them all.  The
+# real logs are diagnosed one by one against the contract's baselines (`diagnose`).
 
 
 rule diagnose:
@@ -29,38 +29,19 @@ rule diagnose:
         "--out-dir results/diagnose/{wildcards.stem} > {log} 2>&1"
 
 
-rule diagnose_ramp_pressure:
-    input:
-        unpack(get_runs_at_pressure),
-        **RAMP_FRICTION,
-    output:
-        json="results/diagnose/pressure/{group}/diagnosis.json",
-        predictions="results/diagnose/pressure/{group}/predictions.csv",
-        report="results/diagnose/pressure/{group}/report.md",
-        details="results/diagnose/pressure/{group}/details.json",
-        figures=expand("results/diagnose/pressure/{{group}}/{name}.png", name=("overlay", "regimes", "windows")),
-    params: code=CODE["diagnose-recording"], friction=get_ramp_friction_args
-    log: "results/logs/diagnose/pressure/{group}.log"
-    benchmark: "results/benchmarks/diagnose/pressure/{group}.tsv"
-    shell:
-        "{ROBOBALL} diagnose-recording --recording {input.csv} {params.friction} --out-dir results/diagnose/pressure/{wildcards.group} > {log} 2>&1"
-
-
-rule diagnose_ramp_heldout:
-    input:
-        unpack(get_other_runs),
-        **RAMP_FRICTION,
-    output:
-        json="results/diagnose/heldout/{stem}/diagnosis.json",
-        predictions="results/diagnose/heldout/{stem}/predictions.csv",
-        report="results/diagnose/heldout/{stem}/report.md",
-        details="results/diagnose/heldout/{stem}/details.json",
-        figures=expand("results/diagnose/heldout/{{stem}}/{name}.png", name=("overlay", "regimes", "windows")),
-    params: code=CODE["diagnose-recording"], friction=get_ramp_friction_args
-    log: "results/logs/diagnose/heldout/{stem}.log"
-    benchmark: "results/benchmarks/diagnose/heldout/{stem}.tsv"
-    shell:
-        "{ROBOBALL} diagnose-recording --recording {input.csv} {params.friction} --out-dir results/diagnose/heldout/{wildcards.stem} > {log} 2>&1"
+# Every ramp diagnosis in one job (roboball stage NAME --each): each takes 2-3 s, about what a
+# process's start-up and the compiled loops' loading cost, and the pooled and held-out diagnoses
+# read the same runs.  An edited run reruns all of them (seconds), as it reruns every ramp_sim.
+if RAMP:
+    rule diagnose_ramp:
+        input:
+            **_ingested(RAMP),
+            **RAMP_FRICTION,
+        output: [f"{d}/{name}" for d in RAMP_DIAGNOSES for name in DIAGNOSIS_FILES]
+        params: code=CODE["diagnose-recording"], each=get_diagnose_ramp_each
+        log: "results/logs/diagnose/ramp.log"
+        benchmark: "results/benchmarks/diagnose/ramp.tsv"
+        shell: "{ROBOBALL} diagnose-recording --each {params.each:q} > {log} 2>&1"
 
 
 # Every run's descent with the diagnosed model, in one job (a few seconds each; roboball stage
