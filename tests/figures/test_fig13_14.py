@@ -133,3 +133,32 @@ def test_the_pme_table_says_which_hydroelastic_variant_its_key_names(tmp_path):
     assert "Models as in Figs. 13/14: `hydroelastic`: hydroelastic (dissipation x0.5)." in md
     fig13_14(_summary(tmp_path / "s.csv"), out["13"], out["14"], out["csv"], out["md"])
     assert "Models as in" not in (tmp_path / "t.md").read_text()
+
+
+def test_a_diagnosed_run_scored_in_sample_is_said_in_the_table_and_both_figures(tmp_path, monkeypatch):
+    """Where a pressure has one ramp run its diagnosed model is scored on the run its diagnosis
+    was fitted on (roboball.pipeline.diagnosis.ramp_diagnosed: scored_in_sample); the table and
+    Figs. 13, 14 say at which pressures, and say nothing when every score is out of sample."""
+    import roboball.figures.paper as figures
+
+    saved = []
+    monkeypatch.setattr(figures, "save", lambda fig, path: saved.append(fig))
+    src = pd.read_csv(_summary(tmp_path / "s.csv"))
+    src["scored_in_sample"] = None                     # the paper's models have no such column value
+    diag = src.contact == "diagnosed"
+    src.loc[diag, "scored_in_sample"] = False
+    src.to_csv(tmp_path / "out.csv", index=False)
+    out = [str(tmp_path / f) for f in ("fig13.png", "fig14.png", "t.csv", "t.md")]
+    fig13_14(str(tmp_path / "out.csv"), *out)
+    assert "in sample" not in (tmp_path / "t.md").read_text()
+    assert not any("in sample" in t.get_text() for f in saved for a in f.axes for t in a.texts)
+    assert "\n" not in saved[1]._suptitle.get_text()
+    src.loc[diag & (src.pressure_kpa == 13.8), "scored_in_sample"] = True
+    src.to_csv(tmp_path / "in.csv", index=False)
+    saved.clear()
+    fig13_14(str(tmp_path / "in.csv"), *out)
+    note = "diagnosed at 13.8 kPa: scored in sample"
+    assert f"Out of sample except: {note}" in (tmp_path / "t.md").read_text()
+    fig13, fig14 = saved
+    assert any(t.get_text().startswith(note) for t in fig13.axes[1].texts)
+    assert fig14._suptitle.get_text().split("\n")[1].startswith(note)

@@ -99,6 +99,8 @@ def test_the_plan_says_what_it_skips_and_why(tmp_path):
     assert any("ramp descents" in p and "point contact and the diagnosed model only" in p for p in plan)
     assert "note  ramp runs: no drive_stand Majd fit in 'lab': its drive friction is Table I's (configs/robot.yaml), " \
            "without posterior draws" in plan
+    assert "note  ramp runs: one run at 13.8 kPa: the diagnosed model is scored there on the run its diagnosis " \
+           "was fitted on (in sample, marked in Figs. 13, 14)" in plan
     assert "skip  Fig. S2 (coupled steer test): fewer than two steer_coupled recordings in one campaign" in plan
     assert camp.ramp_friction(FRICTION) == {"steer": "results/friction/lab/steer_majd.json"}
     assert not camp.has_regression() and camp.diagnosed_stems() == ["steer_stand_r1", "shell_a", "shell_b"]

@@ -57,7 +57,7 @@ def test_diagnosed_ramp_model_is_scored_like_the_paper_models(tmp_path):
     base, aug = pd.read_csv(tmp_path / "base.csv").iloc[0], pd.read_csv(tmp_path / "aug.csv").iloc[0]
     assert base.diagnosed_effects == "none" and base.pme_percent > 3
     assert aug.contact == "diagnosed" and aug.diagnosed_effects == "rolling_resistance(tau_rr=1.42)"
-    assert aug.effects_from == "ramp_20.7kpa_r2"
+    assert aug.effects_from == "ramp_20.7kpa_r2" and not aug.scored_in_sample    # no details.json: the folder
     assert abs(aug.pme_percent) < 5 and abs(aug.pme_percent) < base.pme_percent / 3
     trace = pd.read_csv(tmp_path / "aug.trace.csv")
     assert len(trace) == aug.n_samples and {"drive_rate_measured_rad_s", "drive_rate_sim_rad_s"} <= set(trace)
@@ -218,3 +218,36 @@ def test_a_fitted_breakaway_is_judged_against_the_constant_torque_it_becomes_unf
     stand = Selector(prepare(read(REPO / "raw_data" / "steer_stand" / "steer_stand_r1.csv")))
     assert [key for e, key, _, _ in stand.references(sc) if e == "stiction"] == [frozenset({"viscous_damping"})]
     assert np.isclose(fx.stiction(0.0, np.array(3.0), 0.8, 1e6), fx.rolling_resistance(0.0, np.array(3.0), 0.8))
+
+
+def test_the_row_names_the_runs_its_effects_were_fitted_on_and_whether_it_was_one(tmp_path):
+    """effects_from lists the runs of the diagnosis (its details.json); a pressure's only run is
+    diagnosed on itself, and its row says it is scored in sample."""
+    csv, rel = tmp_path / "ramp_20.7kpa_r1.csv", tmp_path / "run.releases.json"
+    ingest(str(RUN), str(csv), str(rel), str(tmp_path / "qc.png"))
+
+    def diag(name, runs):
+        path = _diag(tmp_path / name / "diagnosis.json", ("rolling_resistance", {"tau_rr": 1.42}))
+        (tmp_path / name / "details.json").write_text(json.dumps({"recording": " + ".join(f"x/{r}.csv" for r in runs)}))
+        return path
+
+    D.ramp_diagnosed(str(csv), str(rel), [diag("o", ["ramp_20.7kpa_r3", "ramp_20.7kpa_r2"])], str(tmp_path / "o.csv"))
+    D.ramp_diagnosed(str(csv), str(rel), [diag("i", ["ramp_20.7kpa_r1"])], str(tmp_path / "i.csv"))
+    out, inside = pd.read_csv(tmp_path / "o.csv").iloc[0], pd.read_csv(tmp_path / "i.csv").iloc[0]
+    assert out.effects_from == "ramp_20.7kpa_r2 ramp_20.7kpa_r3" and not out.scored_in_sample
+    assert inside.effects_from == "ramp_20.7kpa_r1" and inside.scored_in_sample
+    assert out.pme_percent == inside.pme_percent          # the same effects: the same descent
+
+
+def test_a_diagnosis_of_the_same_runs_is_copied_not_made_again(tmp_path):
+    """A pressure's only ramp run is diagnosed pooled and held out from the same recordings: the
+    second is a copy of the first (same_as), byte for byte; given other recordings it diagnoses."""
+    pooled = tmp_path / "pressure"
+    _diag(pooled / "diagnosis.json", ("stiction", {"tau_s": 5.0, "v_s": 3.0}))
+    (pooled / "details.json").write_text(json.dumps({"recording": "results/ingest/ramp_6.9kpa_r1.csv"}))
+    (pooled / "overlay.png").write_bytes(b"\x89PNG not really")
+    D.diagnose_recording(["results/ingest/ramp_6.9kpa_r1.csv"], str(tmp_path / "heldout"), same_as=str(pooled))
+    assert sorted(p.name for p in (tmp_path / "heldout").iterdir()) == ["details.json", "diagnosis.json", "overlay.png"]
+    assert all((tmp_path / "heldout" / p.name).read_bytes() == p.read_bytes() for p in pooled.iterdir())
+    with pytest.raises(RoboballError, match="ramp_6.9kpa_r2"):       # other runs: a diagnosis is attempted
+        D.diagnose_recording([str(tmp_path / "ramp_6.9kpa_r2.csv")], str(tmp_path / "other"), same_as=str(pooled))

@@ -336,10 +336,16 @@ def get_ramp_sim_each(wildcards, input, output):
 
 
 def get_diagnose_ramp_each(wildcards, input, output):
-    """One diagnose-recording call per ramp diagnosis (RAMP_DIAGNOSES), with the Majd fits."""
+    """One diagnose-recording call per ramp diagnosis (RAMP_DIAGNOSES), with the Majd fits; a
+    pressure's only run is diagnosed once, its held-out diagnosis copied from the pooled one."""
     friction = {f"friction_{j}": input[j] for j in ("steer", "drive") if j in RAMP_FRICTION}
-    return _each([{"recording": _ingested(runs)["csv"], "out_dir": d, **friction}
-                  for d, runs in RAMP_DIAGNOSES.items()])
+    pooled = {tuple(runs): d for d, runs in RAMP_DIAGNOSES.items() if d.startswith("results/diagnose/pressure/")}
+    items = []
+    for d, runs in RAMP_DIAGNOSES.items():
+        same = pooled.get(tuple(runs), d)
+        items.append({"recording": _ingested(runs)["csv"], "out_dir": d, **friction,
+                      **({"same_as": same} if same != d else {})})
+    return _each(items)
 
 
 def get_ramp_diagnosed_each(wildcards, input, output):

@@ -147,6 +147,19 @@ def _range_whisker(ax, x, low, high, capsize):
     ax.errorbar(x, 0.5 * (low + high), yerr=0.5 * abs(high - low), fmt="none", ecolor="k", capsize=capsize, lw=1)
 
 
+def _in_sample_note(s: pd.DataFrame) -> str:
+    """A line naming the pressures where the diagnosed model is scored on a run its diagnosis
+    was fitted on (a single run there: roboball.pipeline.diagnosis.ramp_diagnosed), or ""."""
+    if "scored_in_sample" not in s:
+        return ""
+    inside = s[(s.contact == "diagnosed") & (s.scored_in_sample.astype(str) == "True")]
+    if inside.empty:
+        return ""
+    ps = ", ".join(f"{p:g}" for p in sorted(inside.pressure_kpa.unique()))
+    return (f"diagnosed at {ps} kPa: scored in sample (a single run there, so its diagnosis was fitted on "
+            "the run it is scored on)")
+
+
 def _fig13(s: pd.DataFrame, agg: pd.DataFrame, contacts: list, out: str, campaign: str, names: dict) -> None:
     """Fig. 13: PME bars per pressure and model, the runs as dots, posterior whiskers."""
     pressures = sorted(s.pressure_kpa.unique())
@@ -182,6 +195,9 @@ def _fig13(s: pd.DataFrame, agg: pd.DataFrame, contacts: list, out: str, campaig
     ax.text(0.01, 0.98, "bars: mean of runs   dots: runs   whiskers: 95% over friction-posterior draws",
             transform=ax.transAxes, va="top", fontsize=8, color="0.3")
     ax.legend(fontsize=8)
+    note = _in_sample_note(s)
+    if note:
+        ax_d.text(0.01, 0.04, note, transform=ax_d.transAxes, va="bottom", fontsize=8, color="tab:red")
     save(fig, out)
 
 
@@ -246,6 +262,7 @@ def _pme_markdown(s: pd.DataFrame, agg: pd.DataFrame, contacts: list, m: pd.Seri
               "`mean |error|` is the same mean over the same samples of the absolute relative error, and "
               "`RMSE` the RMS drive-rate error over the whole descent (rad/s); both are means over runs.", "",
               *([f"Models as in Figs. 13/14: {'; '.join(said)}.", ""] if said else []),
+              *([f"Out of sample except: {_in_sample_note(s)}.", ""] if _in_sample_note(s) else []),
               "| contact | pressure (kPa) | runs | mean PME | min | max | posterior 95% | mean \\|error\\| (%) | RMSE (rad/s) |",
               "|---|---|---|---|---|---|---|---|---|"]
     for r in agg.itertuples():
@@ -287,7 +304,8 @@ def fig13_14(summary: str, out13: str, out14: str, out_csv: str, out_md: str, ca
     m = s.groupby("contact").pme_percent.mean().reindex(contacts)
     _fig14_signed(ax, s, contacts, m, names)
     _fig14_absolute(ax_abs, s, contacts, names)
-    fig.suptitle(f"Fig. 14: averaged drive speed error{_of(campaign)}", fontsize=10)
+    note = _in_sample_note(s)
+    fig.suptitle(f"Fig. 14: averaged drive speed error{_of(campaign)}" + (f"\n{note}" if note else ""), fontsize=10)
     save(fig, out14)
     write_text_atomic(out_md, _pme_markdown(s, agg, contacts, m, names))
 

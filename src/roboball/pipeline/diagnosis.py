@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from roboball.atomic import write_csv_atomic
+from roboball.atomic import write_bytes_atomic, write_csv_atomic
 from roboball.errors import RoboballError
 from roboball.metrics import speed_errors
 from roboball.pipeline.simulation import ramp_window
@@ -27,16 +27,23 @@ STAGES = ("diagnose_recording", "ramp_diagnosed")
 
 
 def diagnose_recording(recording: list, out_dir: str, friction_steer: str = "", friction_drive: str = "",
-                       steer_joint: str = "") -> None:
+                       steer_joint: str = "", same_as: str = "") -> None:
     """`roboball diagnose` on one recording (CSV with its sidecar), or on several recordings of
     one experiment together: diagnosis.json, report.md, predictions.csv and the figures in
     `out_dir`.  With fitted friction (the pipeline's Majd fits) the ramp baseline is the paper's
     point model as the pipeline calibrates it, instead of the contract's Table I friction.
     `steer_joint` ("locked", "free", "unknown"; empty: the sidecar's, else locked): a shell release's
-    steer setting (roboball.diagnose.steer)."""
+    steer setting (roboball.diagnose.steer).  `same_as`: an out dir already holding the diagnosis
+    of the same recordings with the same settings (a pressure's only ramp run, diagnosed pooled
+    and held out): its files are copied rather than computed again."""
     from roboball.diagnose import diagnose
     from roboball.identify.friction.fitted import read_diagnosis_friction
 
+    if same_as and diagnosed_runs([str(Path(same_as) / "diagnosis.json")]) == sorted({Path(r).stem for r in recording}):
+        for src in sorted(Path(same_as).iterdir()):
+            if src.is_file():
+                write_bytes_atomic(Path(out_dir) / src.name, src.read_bytes())
+        return
     diagnose(recording, out_dir=out_dir, friction=read_diagnosis_friction(friction_steer, friction_drive) or None,
              steer_joint=steer_joint or None)
 
@@ -97,10 +104,24 @@ def diagnosed_descent(rec, releases: str, effects: dict, friction: dict, dt: flo
     return tt, w_e, np.interp(tt, df.time_s.to_numpy(), df.drive_rate_rad_s.to_numpy()), pipe0
 
 
+def diagnosed_runs(diagnoses: list) -> list:
+    """The recordings (file stems) the diagnoses were made on, from the details.json beside each
+    diagnosis.json ([] where a diagnosis has none)."""
+    runs = []
+    for path in diagnoses:
+        details = Path(path).with_name("details.json")
+        if details.is_file():
+            with open(details, encoding="utf-8") as fh:
+                runs += [Path(r.strip()).stem for r in str(json.load(fh).get("recording", "")).split(" + ") if r.strip()]
+    return sorted(set(runs))
+
+
 def ramp_diagnosed(recording: str, releases: str, diagnoses: list, out_csv: str, out_trace: str = "",
                    dt: float = 0.001) -> None:
     """Ramp descent of one recorded run with the diagnosed model (effects from `diagnoses`, the
-    other runs' diagnosis.json files), scored by PME like the paper's contact models."""
+    other runs' diagnosis.json files), scored by PME like the paper's contact models.  The row
+    names the runs the effects were fitted on (`effects_from`) and whether the scored run is
+    among them (`scored_in_sample`: a pressure with a single run has no other to fit on)."""
     from roboball.ingest.recording import read_recording
 
     if not diagnoses:
@@ -108,10 +129,13 @@ def ramp_diagnosed(recording: str, releases: str, diagnoses: list, out_csv: str,
     rec = read_recording(recording)
     effects = consensus_effects(diagnoses)
     tt, w_e, w_s, pipe0 = diagnosed_descent(rec, releases, effects, baseline_friction(diagnoses), dt)
-    row = {"recording": rec.path.stem if rec.path else recording, "pressure_kpa": rec.pressure_kpa,
+    stem = rec.path.stem if rec.path else Path(recording).stem
+    runs = diagnosed_runs(diagnoses)
+    row = {"recording": stem, "pressure_kpa": rec.pressure_kpa,
            "contact": "diagnosed", **speed_errors(w_e, w_s), "initial_pipe_angle_rad": pipe0,
            "n_samples": int(tt.size), "ramp_time_s": float(tt[-1]), "diagnosed_effects": describe(effects),
-           "effects_from": " ".join(Path(p).parent.name for p in diagnoses)}
+           "effects_from": " ".join(runs) if runs else " ".join(Path(p).parent.name for p in diagnoses),
+           "scored_in_sample": stem in runs}
     write_csv_atomic(pd.DataFrame([row]), out_csv)
     if out_trace:
         write_csv_atomic(pd.DataFrame({"time_s": tt, "drive_rate_measured_rad_s": w_e,

@@ -223,6 +223,11 @@ def plan_lines(camp: Campaign, friction: dict) -> list:
         for j in missing:
             out.append(f"note  ramp runs: no {j}_stand Majd fit in '{camp.name(d)}': its {j} friction is Table I's "
                        "(configs/robot.yaml), without posterior draws")
+        single = [camp.recordings[camp.runs_at(g)[0]]["pressure_kpa"] for g in camp.ramp_groups()
+                  if len(camp.runs_at(g)) == 1]
+        if single:
+            out.append(f"note  ramp runs: one run at {', '.join(f'{float(p):g}' for p in single)} kPa: the diagnosed "
+                       "model is scored there on the run its diagnosis was fitted on (in sample, marked in Figs. 13, 14)")
     else:
         say(False, "Figs. 13, 14 (ramp descents, PME)", "no ramp recording")
     cd, why = camp.coupled_plan(friction)
