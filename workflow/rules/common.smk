@@ -132,8 +132,8 @@ RAMP_FRICTION = CAMPAIGN.ramp_friction(config["friction"])
 # The ramp runs grouped by pressure, for the pooled diagnoses (diagnose.smk): out dir -> the runs
 # diagnosed together, all runs at each pressure, then each run's held-out set (the others there).
 RAMP_GROUPS = CAMPAIGN.ramp_groups()
-RAMP_DIAGNOSES = {**{f"results/diagnose/pressure/{g}": CAMPAIGN.runs_at(g) for g in RAMP_GROUPS},
-                  **{f"results/diagnose/heldout/{s}": CAMPAIGN.other_runs(s) for s in RAMP}}
+RAMP_POOLED = {f"results/diagnose/pressure/{g}": CAMPAIGN.runs_at(g) for g in RAMP_GROUPS}
+RAMP_DIAGNOSES = {**RAMP_POOLED, **{f"results/diagnose/heldout/{s}": CAMPAIGN.other_runs(s) for s in RAMP}}
 # what `roboball diagnose` writes in its out dir
 DIAGNOSIS_FILES = ("diagnosis.json", "predictions.csv", "report.md", "details.json", "overlay.png", "regimes.png",
                    "windows.png")
@@ -339,7 +339,7 @@ def get_diagnose_ramp_each(wildcards, input, output):
     """One diagnose-recording call per ramp diagnosis (RAMP_DIAGNOSES), with the Majd fits; a
     pressure's only run is diagnosed once, its held-out diagnosis copied from the pooled one."""
     friction = {f"friction_{j}": input[j] for j in ("steer", "drive") if j in RAMP_FRICTION}
-    pooled = {tuple(runs): d for d, runs in RAMP_DIAGNOSES.items() if d.startswith("results/diagnose/pressure/")}
+    pooled = {tuple(runs): d for d, runs in RAMP_POOLED.items()}
     items = []
     for d, runs in RAMP_DIAGNOSES.items():
         same = pooled.get(tuple(runs), d)

@@ -31,7 +31,7 @@ rule diagnose:
 
 # Every ramp diagnosis in one job (roboball stage NAME --each): each takes 2-3 s, about what a
 # process's start-up and the compiled loops' loading cost, and the pooled and held-out diagnoses
-# read the same runs.  An edited run reruns all of them (seconds), as it reruns every ramp_sim.
+# read the same runs.  An edited run reruns all of them (about a minute), as it reruns every ramp_sim.
 if RAMP:
     rule diagnose_ramp:
         input:

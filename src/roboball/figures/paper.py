@@ -160,8 +160,10 @@ def _in_sample_note(s: pd.DataFrame) -> str:
             "the run it is scored on)")
 
 
-def _fig13(s: pd.DataFrame, agg: pd.DataFrame, contacts: list, out: str, campaign: str, names: dict) -> None:
-    """Fig. 13: PME bars per pressure and model, the runs as dots, posterior whiskers."""
+def _fig13(s: pd.DataFrame, agg: pd.DataFrame, contacts: list, out: str, campaign: str, names: dict,
+           note: str = "") -> None:
+    """Fig. 13: PME bars per pressure and model, the runs as dots, posterior whiskers; `note` (the
+    in-sample scores, :func:`_in_sample_note`) in red under the detail panel's bars."""
     pressures = sorted(s.pressure_kpa.unique())
     # Two panels: every model, and below it the models within DETAIL_PERCENT of the recording,
     # whose differences (a few tenths of a percent) the full scale hides.
@@ -195,7 +197,6 @@ def _fig13(s: pd.DataFrame, agg: pd.DataFrame, contacts: list, out: str, campaig
     ax.text(0.01, 0.98, "bars: mean of runs   dots: runs   whiskers: 95% over friction-posterior draws",
             transform=ax.transAxes, va="top", fontsize=8, color="0.3")
     ax.legend(fontsize=8)
-    note = _in_sample_note(s)
     if note:
         ax_d.text(0.01, 0.04, note, transform=ax_d.transAxes, va="bottom", fontsize=8, color="tab:red")
     save(fig, out)
@@ -253,7 +254,8 @@ def _fig14_absolute(ax_abs, s: pd.DataFrame, contacts: list, names: dict) -> Non
                      fontsize=9)
 
 
-def _pme_markdown(s: pd.DataFrame, agg: pd.DataFrame, contacts: list, m: pd.Series, names: dict) -> str:
+def _pme_markdown(s: pd.DataFrame, agg: pd.DataFrame, contacts: list, m: pd.Series, names: dict,
+                  note: str = "") -> str:
     """The PME table for people: per (contact, pressure), then per contact over all runs;
     `names` the figures' labels of the contacts, said where they add to the table's key."""
     said = [f"`{c}`: {names[c].replace(chr(10), ' ')}" for c in contacts if names.get(c, c) != c]
@@ -262,7 +264,7 @@ def _pme_markdown(s: pd.DataFrame, agg: pd.DataFrame, contacts: list, m: pd.Seri
               "`mean |error|` is the same mean over the same samples of the absolute relative error, and "
               "`RMSE` the RMS drive-rate error over the whole descent (rad/s); both are means over runs.", "",
               *([f"Models as in Figs. 13/14: {'; '.join(said)}.", ""] if said else []),
-              *([f"Out of sample except: {_in_sample_note(s)}.", ""] if _in_sample_note(s) else []),
+              *([f"Out of sample except: {note}.", ""] if note else []),
               "| contact | pressure (kPa) | runs | mean PME | min | max | posterior 95% | mean \\|error\\| (%) | RMSE (rad/s) |",
               "|---|---|---|---|---|---|---|---|---|"]
     for r in agg.itertuples():
@@ -298,16 +300,16 @@ def fig13_14(summary: str, out13: str, out14: str, out_csv: str, out_md: str, ca
         names["hydroelastic"] = f"hydroelastic\n({hydro_setting})"
     if "hydro_tuned" in names:
         names["hydro_tuned"] = "hydroelastic\n(calibrated, Fig. S3)"
-    _fig13(s, agg, contacts, out13, campaign, {c: n.replace("\n", " ") for c, n in names.items()})
+    note = _in_sample_note(s)
+    _fig13(s, agg, contacts, out13, campaign, {c: n.replace("\n", " ") for c, n in names.items()}, note)
     # 12 in wide: five two-line model names side by side without overlapping
     fig, (ax, ax_abs) = plt.subplots(1, 2, figsize=(14, 4.2), gridspec_kw={"width_ratios": [1.2, 1.2]})
     m = s.groupby("contact").pme_percent.mean().reindex(contacts)
     _fig14_signed(ax, s, contacts, m, names)
     _fig14_absolute(ax_abs, s, contacts, names)
-    note = _in_sample_note(s)
     fig.suptitle(f"Fig. 14: averaged drive speed error{_of(campaign)}" + (f"\n{note}" if note else ""), fontsize=10)
     save(fig, out14)
-    write_text_atomic(out_md, _pme_markdown(s, agg, contacts, m, names))
+    write_text_atomic(out_md, _pme_markdown(s, agg, contacts, m, names, note))
 
 
 def table2(out_csv: str, out_md: str, robot_yaml: str = "") -> None:

@@ -223,8 +223,8 @@ def plan_lines(camp: Campaign, friction: dict) -> list:
         for j in missing:
             out.append(f"note  ramp runs: no {j}_stand Majd fit in '{camp.name(d)}': its {j} friction is Table I's "
                        "(configs/robot.yaml), without posterior draws")
-        single = [camp.recordings[camp.runs_at(g)[0]]["pressure_kpa"] for g in camp.ramp_groups()
-                  if len(camp.runs_at(g)) == 1]
+        single = [camp.recordings[runs[0]]["pressure_kpa"] for runs in map(camp.runs_at, camp.ramp_groups())
+                  if len(runs) == 1]
         if single:
             out.append(f"note  ramp runs: one run at {', '.join(f'{float(p):g}' for p in single)} kPa: the diagnosed "
                        "model is scored there on the run its diagnosis was fitted on (in sample, marked in Figs. 13, 14)")
