@@ -6,7 +6,7 @@ The diagnosis contract fits a `steer_coupled` baseline's release states; the cou
 (roboball.pipeline.coupled) takes them from each log instead: both angles at the first sample,
 both rates from a quadratic over the first 0.1 s (roboball.diagnose.coupled.Repeat).  This script
 measures what fitting them would change.  For each model (at the stage's fitted pressure, read
-from results/coupled/coupled.json) and each real repeat, the four states (pipe and steer angle,
+from results/coupled/real/coupled.json) and each real repeat, the four states (pipe and steer angle,
 pipe and steer rate) are fitted by least squares of both coordinates in Drake:
 
 * `free`: no bounds;
@@ -83,7 +83,7 @@ def main(argv=None) -> None:
     res = Path(args.results)
     laws = ShellLaws.from_regression_csv(res / "identify" / "shell_regression.csv")
     friction = read_stand_friction(res / "friction" / "real" / "steer_majd.json")
-    p_kpa = json.loads((res / "coupled" / "coupled.json").read_text())["pressure"]["p_kpa"]
+    p_kpa = json.loads((res / "coupled" / "real" / "coupled.json").read_text())["pressure"]["p_kpa"]
     reps = read_repeats(sorted(REAL.glob("steer_coupled_*.csv")))
     print(f"pressure {p_kpa:.2f} kPa (the coupled stage's); states: " + ", ".join(NAMES))
     for name in args.models:

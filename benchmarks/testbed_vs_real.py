@@ -13,7 +13,7 @@ the same experiment in Drake at every campaign pressure, released from each repe
 sample with the rates the coupled stage uses (`roboball.diagnose.coupled.Repeat.release_rates`),
 the shell's flat set at its rest.  Printed per pressure and repeat: RMS of both coordinates
 (rad) and the largest pipe angle (rad; the real shell swings over to +0.27..+0.33).  Beside
-them, the pipeline's own models on the same repeats (paper_figures/table_coupled_rms.csv,
+them, the pipeline's own models on the same repeats (paper_figures/table_coupled_rms_real.csv,
 held out).
 
 Then, when `make figures` has diagnosed the real dynamic log (results/diagnose/real_shell_rock),
@@ -108,7 +108,7 @@ def main() -> int:
             r = rms(pred, rep)
             print(f"{p} | {rep.name} | {r['pipe_angle_rad']:.3f} / {r['steer_angle_rad']:.3f} | "
                   f"{pred['pipe_angle_rad'].max():+.3f} | {time.perf_counter() - t0:.1f}", flush=True)
-    table = ROOT / "paper_figures" / "table_coupled_rms.csv"
+    table = ROOT / "paper_figures" / "table_coupled_rms_real.csv"
     if table.is_file():
         t = pd.read_csv(table)
         print("the pipeline's models on the same repeats (RMS pipe / steer, rad):")

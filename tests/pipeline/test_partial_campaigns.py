@@ -26,14 +26,14 @@ ROBOBALL = str(Path(sys.executable).with_name("roboball"))
 
 
 def partial(dest: Path, drop=(), pressures=None, ramps_per_pressure=None) -> Path:
-    """The virtual campaign (raw_data/, symlinked) without the kinds in `drop`, its shell and
-    ramp recordings limited to `pressures` (kPa) and to `ramps_per_pressure` runs each."""
+    """The virtual campaign (raw_data/, symlinked) without the kinds in `drop`, its shell, ramp and
+    coupled recordings limited to `pressures` (kPa) and to `ramps_per_pressure` ramp runs each."""
     dest.mkdir(parents=True)
     lines = (REPO / "raw_data" / "MANIFEST.csv").read_text().splitlines()
     keep = [lines[0]]
     for line in lines[1:]:
         file, kind, p = line.split(",")[:3]
-        if kind in drop or (pressures and kind in ("shell_rock", "ramp") and float(p) not in pressures):
+        if kind in drop or (pressures and kind in ("shell_rock", "ramp", "steer_coupled") and float(p) not in pressures):
             continue
         if ramps_per_pressure and kind == "ramp" and int(line.split(",")[3]) > ramps_per_pressure:
             continue
@@ -66,11 +66,13 @@ SHELL_RULES = ("shell_regression", "shell_sim", "sweep_sim", "fig10", "fig11", "
                "figS3_hydro_calibration", "figS1_deflating_ramp", "replay")
 RAMP_RULES = ("ramp_sim", "diagnose_ramp", "ramp_diagnosed", "fig13_14")
 CASES = {  # case -> (manifest filter, rules that must not run, rules that must, a line of the plan)
-    "no steer stand": ({"drop": ("steer_stand",)}, ("friction_comparison",), ("ramp_sim", "fig10", "table1"),
+    "no steer stand": ({"drop": ("steer_stand",)}, ("friction_comparison", "figS2_steer_coupled"),
+                       ("ramp_sim", "fig10", "table1"),
                        "skip  Fig. 7 and Table I rows: steer friction of 'c': no steer_stand recording in 'c'"),
-    "no drive stand": ({"drop": ("drive_stand",)}, (), ("friction_comparison", "ramp_sim", "fig13_14"),
+    "no drive stand": ({"drop": ("drive_stand",)}, (), ("friction_comparison", "ramp_sim", "fig13_14", "figS2_steer_coupled"),
                        "note  ramp runs: no drive_stand Majd fit in 'c': its drive friction is Table I's"),
-    "no shell releases": ({"drop": ("shell_rock",)}, SHELL_RULES + ("decay",), ("fig13_14", "ramp_diagnosed"),
+    "no shell releases": ({"drop": ("shell_rock",)}, SHELL_RULES + ("decay", "figS2_steer_coupled"),
+                          ("fig13_14", "ramp_diagnosed"),
                           "skip  zeta(p), omega_n(p) regression and what needs it: Figs. 10, 11, the hydroelastic "
                           "calibration (Fig. S3), Fig. S1, the replays: no shell_rock recording with a known pressure"),
     "no ramp runs": ({"drop": ("ramp",)}, RAMP_RULES, SHELL_RULES, "skip  Figs. 13, 14 (ramp descents, PME): no ramp "
@@ -142,21 +144,22 @@ def test_the_public_real_logs_are_a_campaign_like_any_other(tmp_path):
                  "skip  zeta(p), omega_n(p) regression and what needs it"):
         assert line in plan, plan[-3000:]
     figs = out / "figures"
-    for name in ("table1_friction.md", "fig7_roboball_real_steer_fits.png", "figS2_steer_coupled.png",
-                 "table_coupled_rms.md", "uncertainty_report.html", "fig5_friction_laws.png"):
+    for name in ("table1_friction.md", "fig7_roboball_real_steer_fits.png",
+                 "figS2_steer_coupled_roboball_real.png", "table_coupled_rms_roboball_real.md",
+                 "uncertainty_report.html", "fig5_friction_laws.png"):
         assert (figs / name).stat().st_size > 1000, name
     assert "steering_static_stand_response" in (figs / "table1_friction.md").read_text()
     decay = (out / "results" / "decay" / "dynamic_data.csv").read_text().splitlines()
     assert len(decay) == 2                                    # the shell log's one release
     diag = json.loads((out / "results" / "diagnose" / "dynamic_data" / "diagnosis.json").read_text())
     assert diag["verdict"]
-    table = (figs / "table_coupled_rms.md").read_text()
+    table = (figs / "table_coupled_rms_roboball_real.md").read_text()
     assert "Pressure (not logged): not fitted" in table and "| injected |" in table and "| diagnosed |" in table
     assert "virtual test bed" not in (figs / "uncertainty_report.html").read_text()
 
 
 def test_a_bad_campaign_is_refused_in_one_line_before_any_job_and_leaves_nothing(tmp_path):
-    raw = partial(tmp_path / "c", drop=("ramp", "shell_rock", "drive_stand"))
+    raw = partial(tmp_path / "c", drop=("ramp", "shell_rock", "drive_stand", "steer_coupled"))
     (raw / "MANIFEST.csv").write_text((raw / "MANIFEST.csv").read_text() + "steer_stand/gone.csv,steer_stand,\n")
     venv = Path(sys.executable).parent.parent
     out = tmp_path / "out"

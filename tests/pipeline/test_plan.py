@@ -59,8 +59,8 @@ def test_a_second_campaign_is_a_dataset_of_its_own_and_optional_ones_may_be_miss
     assert camp.stems("steer_stand", "real") == ["real_steer_stand"]          # named by the manifest
     assert camp.recordings["d"]["steer_joint"] == "unknown" and camp.pressure("d") is None
     assert camp.stems("shell_rock", "testbed") == ["shell_rock_6.9kpa_r1"]
-    assert camp.coupled_dataset() == "real" and camp.fits(FRICTION) == [("real", "steer", "viscous"),
-                                                                          ("real", "steer", "majd")]
+    assert camp.coupled_groups() == {"real": ("real", ["c1", "c2"], None)}
+    assert camp.fits(FRICTION) == [("real", "steer", "viscous"), ("real", "steer", "majd")]
     off = Campaign.from_config(config(("testbed", "t", raw, {}), ("real", "r", tmp_path / "none", {"optional": True})))
     assert list(off.datasets) == ["testbed"] and "folder" in off.notes[0] and "not found" in off.notes[0]
 
@@ -101,10 +101,36 @@ def test_the_plan_says_what_it_skips_and_why(tmp_path):
            "without posterior draws" in plan
     assert "note  ramp runs: one run at 13.8 kPa: the diagnosed model is scored there on the run its diagnosis " \
            "was fitted on (in sample, marked in Figs. 13, 14)" in plan
-    assert "skip  Fig. S2 (coupled steer test): fewer than two steer_coupled recordings in one campaign" in plan
+    assert "skip  Fig. S2 (coupled steer test): no steer_coupled recording" in plan
     assert camp.ramp_friction(FRICTION) == {"steer": "results/friction/lab/steer_majd.json"}
     assert not camp.has_regression() and camp.diagnosed_stems() == ["steer_stand_r1", "shell_a", "shell_b"]
     assert all(p.startswith(("make  ", "skip  ", "note  ", "campaign ")) for p in plan)
+
+
+def test_coupled_repeats_make_one_fig_s2_per_logged_pressure_and_one_of_unlogged_pressure(tmp_path):
+    lines = [("steer_stand_r1.csv", "steer_stand", ""), ("shell_a.csv", "shell_rock", "6.9"),
+             ("shell_b.csv", "shell_rock", "20.7"), ("c_a1.csv", "steer_coupled", "6.9"),
+             ("c_a2.csv", "steer_coupled", "6.90"), ("c_b1.csv", "steer_coupled", "20.7"),
+             ("c_u1.csv", "steer_coupled", ""), ("c_u2.csv", "steer_coupled", "unknown")]
+    camp = Campaign.from_config({"campaign_dir": str(folder(tmp_path / "lab", lines))})
+    # a set is named by its campaign's id (as Fig. 7's files are) and its logged pressure
+    assert camp.coupled_groups() == {"lab": ("lab", ["c_u1", "c_u2"], None),
+                                     "lab_6.9kpa": ("lab", ["c_a1", "c_a2"], 6.9), "lab_20.7kpa": ("lab", ["c_b1"], 20.7)}
+    sets, skipped = camp.coupled_plan(FRICTION)
+    assert list(sets) == ["lab", "lab_6.9kpa"]
+    assert skipped == [("lab_20.7kpa", "one steer_coupled recording; leave-one-out needs two repeats")]
+    plan = camp.plan_lines(FRICTION)
+    assert "make  Fig. S2 (coupled steer test, 2 repeats of 'lab', pressure not logged)" in plan
+    assert "make  Fig. S2 (coupled steer test, 2 repeats of 'lab', at 6.9 kPa)" in plan
+    assert "skip  Fig. S2 (coupled steer test of 'lab', at 20.7 kPa): one steer_coupled recording; leave-one-out " \
+           "needs two repeats" in plan
+    # no steer fit in its campaign, no set
+    raw = folder(tmp_path / "two", [("c1.csv", "steer_coupled", "6.9"), ("c2.csv", "steer_coupled", "6.9")])
+    two = Campaign.from_config(config(("lab", "lab", folder(tmp_path / "lab2", lines), {}), ("b", "bench B", raw, {})))
+    assert set(two.coupled_groups()) == {"lab", "lab_6.9kpa", "lab_20.7kpa", "b_6.9kpa"}
+    sets, skipped = two.coupled_plan(FRICTION)
+    assert set(sets) == {"lab", "lab_6.9kpa"}
+    assert ("b_6.9kpa", "no steer_stand Majd fit in 'bench B' for its steer friction") in skipped
 
 
 def test_sweep_cases_scale_modulus_dissipation_and_both():
@@ -136,3 +162,8 @@ def test_the_repository_campaigns():
         assert camp.stems("steer_coupled", "real") == [f"steer_coupled_20250429_{t}" for t in ("165825", "165853",
                                                                                               "165914")]
         assert camp.diagnosed_stems() == ["real_steer_stand", "real_shell_rock"]
+    # the campaign's coupled runs: two at each pressure, one Fig. S2 each (and the real repeats')
+    sets, skipped = camp.coupled_plan(config["friction"])
+    assert not skipped and [n for n in sets if n.startswith("testbed")] == [
+        f"testbed_{p}kpa" for p in ("6.9", "10.3", "13.8", "17.2", "20.7")]
+    assert all(len(stems) == 2 and d == "testbed" for n, (d, stems, p) in sets.items() if n != "real")

@@ -34,8 +34,10 @@ def test_hidden_physics_changes_ramp_runs_and_switching_it_off_shrinks_the_gap()
 
 def test_manifest_lists_every_file_with_its_hash():
     man = pd.read_csv(RAW / "MANIFEST.csv")
-    assert set(man.kind) == {"steer_stand", "drive_stand", "shell_rock", "ramp"}
+    assert set(man.kind) == {"steer_stand", "drive_stand", "shell_rock", "ramp", "steer_coupled"}
     assert sorted(man[man.kind == "shell_rock"].pressure_kpa.unique()) == [6.9, 10.3, 13.8, 17.2, 20.7]
+    assert (man[man.kind == "steer_coupled"].groupby("pressure_kpa").size() == 2).all()
+    assert sorted(man[man.kind == "steer_coupled"].pressure_kpa.unique()) == [6.9, 10.3, 13.8, 17.2, 20.7]
     assert (man[man.kind == "ramp"].groupby("pressure_kpa").size() >= 3).all()
     for row in man.itertuples():
         assert hashlib.sha256((RAW / row.file).read_bytes()).hexdigest() == row.sha256, row.file
@@ -67,7 +69,7 @@ def test_the_ramp_release_ground_truth_is_not_any_instant_of_the_hold():
     assert failures >= len(ramps) // 2
 
 
-@pytest.mark.parametrize("name", ["steer_stand_r1", "ramp_10.3kpa_r2"])
+@pytest.mark.parametrize("name", ["steer_stand_r1", "ramp_10.3kpa_r2", "steer_coupled_20.7kpa_r2"])
 def test_regenerating_a_file_reproduces_its_manifest_hash(tmp_path, name):
     man = pd.read_csv(RAW / "MANIFEST.csv").set_index("file")
     out = generate(tmp_path, only=name, workers=1)
@@ -81,6 +83,26 @@ def test_regenerating_a_file_reproduces_its_manifest_hash(tmp_path, name):
 def test_regenerating_the_whole_campaign_reproduces_the_manifest(tmp_path):
     generate(tmp_path, workers=2)
     assert (tmp_path / "MANIFEST.csv").read_bytes() == (RAW / "MANIFEST.csv").read_bytes()
+
+
+def test_the_coupled_runs_are_made_as_the_real_repeats_were_and_settle_at_every_pressure():
+    """Like the authors' repeats (data README): trimmed at the let-go with the shell tilted to
+    about -0.36 rad and the pendulum hanging near plumb, sampled at about 50 Hz for 5 s; shell and
+    pendulum swing together and come to rest near upright (the twin stands with its pendulum
+    free at every pressure), the steer joint off its release by more than the shell's tilt."""
+    from roboball.ingest.recording import read_recording
+
+    man = pd.read_csv(RAW / "MANIFEST.csv")
+    for row in man[man.kind == "steer_coupled"].itertuples():
+        rec = read_recording(RAW / row.file)
+        assert rec.meta["pressure_kpa"] == row.pressure_kpa
+        t, pipe, steer = rec.time, rec.signal("pipe_angle_rad"), rec.signal("steer_angle_rad")
+        assert -0.42 <= pipe[0] <= -0.30 and 0.0 <= pipe[0] + steer[0] <= 0.05, row.file
+        assert 4.9 <= t[-1] - t[0] <= 5.0 and 40 <= len(t) / (t[-1] - t[0]) <= 60, row.file
+        assert pipe.max() > 0.15 and steer.min() < -0.3, row.file                 # they swing together
+        last = t > t[-1] - 1.0
+        assert np.ptp(pipe[last]) < 0.03 and abs(np.mean(pipe[last])) < 0.08, row.file   # at rest, upright
+        assert np.ptp(steer[last]) < 0.03, row.file
 
 
 def test_testbed_shell_logs_follow_the_membrane_patch(robot):

@@ -142,16 +142,12 @@ DIAGNOSIS_FILES = ("diagnosis.json", "predictions.csv", "report.md", "details.js
 DEFLATE = config.get("deflating_ramp", {})
 DEFLATE_SCHEDULE = DEFLATE.get("schedule", {})
 
-# Beyond the paper (issue 27, Fig. S2): the coupled steer repeats of one campaign, with that
-# campaign's steer-stand Majd fit; its shell laws are the regression, else that campaign's shell
-# releases held constant (a pressure-free law: the repeats' pressure is then not fitted).
-COUPLED_SET = CAMPAIGN.coupled_plan(config["friction"])[0]
-COUPLED = stems("steer_coupled", COUPLED_SET) if COUPLED_SET else []
-# a user's campaign (make figures RAW=DIR) is named in Fig. S2's title; the committed run's keep theirs
-COUPLED_TITLE = CAMPAIGN.name(COUPLED_SET) if config.get("campaign_dir") and COUPLED else ""
-COUPLED_TITLE_ARG = f"--campaign {shlex.quote(COUPLED_TITLE)}" if COUPLED_TITLE else ""
-COUPLED_LAWS = (REGRESSION_CSV if REGRESSION else f"results/identify/{COUPLED_SET}_shell_laws.csv") if COUPLED else ""
-
+# Beyond the paper (issue 27, Fig. S2): the coupled steer test of each set of repeats (a campaign's
+# repeats at one logged pressure, or those whose pressure was not logged: roboball.pipeline.plan),
+# with that campaign's steer-stand Majd fit; its shell laws are the regression, else that
+# campaign's shell releases held constant (a pressure-free law: the repeats' pressure is then not fitted).
+COUPLED_SETS = CAMPAIGN.coupled_plan(config["friction"])[0]
+COUPLED = [s for _, stems_, _ in COUPLED_SETS.values() for s in stems_]
 PF = config.get("figures_dir", "paper_figures")
 # The paper tables the Snakemake report shows (rule table_page), by file stem.
 # Numbered: the report sorts its labels as text.
@@ -163,8 +159,10 @@ if RAMP:
     TABLE_NAMES["table_pme"] = "3. PME (eq. 12) by contact model and pressure"
 if REGRESSION:
     TABLE_NAMES["table_sweep"] = "4. Hydroelastic sweep"
-if COUPLED:
-    TABLE_NAMES["table_coupled_rms"] = "5. Coupled steer test (Fig. S2): RMS by model"
+for _name, (_d, _, _p) in COUPLED_SETS.items():
+    TABLE_NAMES[f"table_coupled_rms_{_name}"] = (
+        f"5. Coupled steer test (Fig. S2), {CAMPAIGN.name(_d)}, "
+        + ("pressure not logged" if _p is None else f"{_p:g} kPa") + ": RMS by model")
 
 
 ##### file names #####
@@ -188,6 +186,14 @@ def diagnosis_files(name):
     stand and shell recordings' own, then each ramp pressure's pooled one."""
     return ([f"results/diagnose/{s}/{name}" for s in CAMPAIGN.diagnosed_stems()]
             + [f"results/diagnose/pressure/{g}/{name}" for g in RAMP_GROUPS])
+
+
+def coupled_outputs(name):
+    """The files of one set of coupled repeats (COUPLED_SETS): Fig. S2 and its table in the
+    figures, suffixed by the set's name, and its traces and summary under results/coupled/."""
+    return {"png": f"{PF}/figS2_steer_coupled_{name}.png", "pdf": f"{PF}/figS2_steer_coupled_{name}.pdf",
+            "table_csv": f"{PF}/table_coupled_rms_{name}.csv", "table_md": f"{PF}/table_coupled_rms_{name}.md",
+            "traces": f"results/coupled/{name}/traces.csv", "summary": f"results/coupled/{name}/coupled.json"}
 
 
 def stand_figure(dataset, joint):
@@ -225,8 +231,9 @@ def final_targets():
     targets += [stand_figure(d, j) for d, j in STAND_FIGS]
     targets += [f"{PF}/corner/corner_{d}_{j}_{l}.png" for d, j, l in FITS]
     targets += [f"{PF}/uncertainty_report.html"]
-    if COUPLED:
-        targets += [f"{PF}/figS2_steer_coupled.png", f"{PF}/table_coupled_rms.csv", f"{PF}/table_coupled_rms.md"]
+    for name in COUPLED_SETS:
+        out = coupled_outputs(name)
+        targets += [out["png"], out["table_csv"], out["table_md"]]
     targets += [f"results/report/{t}.html" for t in TABLE_NAMES]
     if SHELL_GROUPS:
         targets += [f"{PF}/figS3_hydro_calibration.png", f"{PF}/table_hydro_tuned.md", f"{PF}/table_hydro_tuned.csv",
@@ -333,6 +340,29 @@ def get_ramp_sim_each(wildcards, input, output):
                    "posterior_draws": config["ramp"]["posterior_draws"], "seed": config["seed"],
                    "out_csv": pme, "out_trace": trace}
                   for c, r, pme, trace in zip(input.csv, input.releases, output.pme, output.trace)])
+
+
+def coupled_laws(dataset):
+    """The shell laws a set of coupled repeats runs with: the regression, else its campaign's."""
+    return REGRESSION_CSV if REGRESSION else f"results/identify/{dataset}_shell_laws.csv"
+
+
+def get_steer_coupled_each(wildcards, input, output):
+    """One steer-coupled call per set of coupled repeats: its recordings as recorded, its
+    campaign's shell laws and steer Majd fit, its logged pressure, its files."""
+    items = []
+    for name, (d, stems_, p) in COUPLED_SETS.items():
+        out = coupled_outputs(name)
+        item = {"recordings": [REC[s]["src"] for s in stems_], "regression": coupled_laws(d),
+                "friction_steer": fit_json(d, "steer", "majd"), "hydro_fit": " ".join(input.hydro_fit),
+                "nm_evals": config.get("steer_coupled", {}).get("nm_evals", 30), "campaign": CAMPAIGN.name(d),
+                "diagnose": int(CAMPAIGN.datasets[d]["diagnose_recordings"]),
+                "out_json": out["summary"], "out_csv": out["traces"], "out_png": out["png"],
+                "table_csv": out["table_csv"], "table_md": out["table_md"]}
+        if p is not None:
+            item["pressure_kpa"] = p
+        items.append(item)
+    return _each(items)
 
 
 def get_diagnose_ramp_each(wildcards, input, output):

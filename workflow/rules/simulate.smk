@@ -163,37 +163,35 @@ rule figS1_deflating_ramp:
         "--out-png {output.png} --out-csv {output.csv} > {log} 2>&1"
 
 
-rule figS2_steer_coupled:
-    # Beyond the paper (issue 27): the coupled steer test's three real repeats against every
-    # shell model, our fit of the authors' objective and the held-out diagnosed model
-    # (roboball.pipeline.coupled).  The steer friction is the real stand's Majd fit.
-    input:
-        # read as recorded (their ingest checks them and draws their QC plots first)
-        recordings=[REC[s]["src"] for s in COUPLED],
-        ingested=[f"results/ingest/{s}.csv" for s in COUPLED],
-        regression=COUPLED_LAWS,
-        friction=fit_json(COUPLED_SET, "steer", "majd"),
-        hydro_fit=[HYDRO_TUNED] if SHELL_GROUPS else [],
-    output:
-        png=report(f"{PF}/figS2_steer_coupled.png", category="6 Beyond the paper", caption="../report/figS2.rst",
-                   labels={"figure": "Fig. S2: coupled steer test"}),
-        pdf=f"{PF}/figS2_steer_coupled.pdf",
-        table_csv=f"{PF}/table_coupled_rms.csv",
-        table_md=f"{PF}/table_coupled_rms.md",
-        traces="results/coupled/traces.csv",
-        summary="results/coupled/coupled.json",
-    params:
-        code=CODE["steer-coupled"],
-        nm_evals=config.get("steer_coupled", {}).get("nm_evals", 30),
-        campaign=COUPLED_TITLE_ARG,
-    resources:
-        mem_mb=1500,
-        runtime=15,
-        cpus_per_task=1,
-    log: "results/logs/figS2_steer_coupled.log"
-    benchmark: "results/benchmarks/figS2_steer_coupled.tsv"
-    shell:
-        "{ROBOBALL} steer-coupled --recordings {input.recordings} --regression {input.regression} "
-        "--friction-steer {input.friction} --nm-evals {params.nm_evals} --out-json {output.summary} "
-        "--out-csv {output.traces} --out-png {output.png} --table-csv {output.table_csv} "
-        "--table-md {output.table_md} --hydro-fit '{input.hydro_fit}' {params.campaign} > {log} 2>&1"
+if COUPLED_SETS:
+    rule figS2_steer_coupled:
+        # Beyond the paper (issue 27): every set of coupled steer repeats (the real robot's three,
+        # the campaign's at each logged pressure) against every shell model, our fit of the
+        # authors' objective (pressure not logged) and the held-out diagnosed model
+        # (roboball.pipeline.coupled), in one job (roboball stage NAME --each).  The steer
+        # friction is each campaign's own stand Majd fit.
+        input:
+            # read as recorded (their ingest checks them and draws their QC plots first)
+            recordings=[REC[s]["src"] for s in COUPLED],
+            ingested=[f"results/ingest/{s}.csv" for s in COUPLED],
+            regression=sorted({coupled_laws(d) for d, _, _ in COUPLED_SETS.values()}),
+            friction=sorted({fit_json(d, "steer", "majd") for d, _, _ in COUPLED_SETS.values()}),
+            hydro_fit=[HYDRO_TUNED] if SHELL_GROUPS else [],
+        output:
+            png=[report(coupled_outputs(n)["png"], category="6 Beyond the paper", caption="../report/figS2.rst",
+                        labels={"figure": f"Fig. S2: coupled steer test, {n}"}) for n in COUPLED_SETS],
+            pdf=[coupled_outputs(n)["pdf"] for n in COUPLED_SETS],
+            table_csv=[coupled_outputs(n)["table_csv"] for n in COUPLED_SETS],
+            table_md=[coupled_outputs(n)["table_md"] for n in COUPLED_SETS],
+            traces=[coupled_outputs(n)["traces"] for n in COUPLED_SETS],
+            summary=[coupled_outputs(n)["summary"] for n in COUPLED_SETS],
+        params:
+            code=CODE["steer-coupled"],
+            each=get_steer_coupled_each,
+        resources:
+            mem_mb=1500,
+            runtime=20,
+            cpus_per_task=1,
+        log: "results/logs/figS2_steer_coupled.log"
+        benchmark: "results/benchmarks/figS2_steer_coupled.tsv"
+        shell: "{ROBOBALL} steer-coupled --each {params.each:q} > {log} 2>&1"

@@ -30,10 +30,11 @@ def count_word(n: int) -> str:
 
 
 def plot(traces: pd.DataFrame, table: pd.DataFrame, out_png: str, campaign: str = "",
-         pressure_free: bool = False, left_out: dict | None = None) -> None:
+         pressure_free: bool = False, left_out: dict | None = None, logged_kpa: float | None = None) -> None:
     """Two rows (pipe angle, steer angle) by one column per repeat; PNG + PDF.  `campaign` names
     where the repeats come from in the title; `pressure_free`: the shell laws did not depend on
-    pressure, so no pressure was fitted; `left_out` ({model: why}) is said under the title."""
+    pressure, so no pressure was fitted; `left_out` ({model: why}) is said under the title;
+    `logged_kpa`: the repeats' logged pressure, at which every model ran."""
     from roboball.figures.style import plt, save
 
     repeats = list(dict.fromkeys(traces.repeat))
@@ -59,10 +60,14 @@ def plot(traces: pd.DataFrame, table: pd.DataFrame, out_png: str, campaign: str 
     fig.legend(handles, labels, loc="outside lower center", ncol=4, fontsize=8)
     n = traces["repeat"].nunique()
     where = f" of {campaign}" if campaign else ""
-    how = ("shell laws held at the campaign's shell releases; pressure not fitted" if pressure_free
-           else "pressure models at each held-out repeat's fold pressure")
+    if pressure_free:
+        how = "shell laws held at the campaign's shell releases; pressure not fitted"
+    elif logged_kpa is not None:
+        how = f"at the logged pressure, {logged_kpa:g} kPa"
+    else:
+        how = "pressure models at each held-out repeat's fold pressure"
     # a model the stage could not run is named, not silently missing
     not_run = "".join(f"\nnot run: {label(m)}: {why}" for m, why in (left_out or {}).items())
-    fig.suptitle(f"Fig. S2: coupled steer test, {count_word(n)} real repeats{where} against every shell model "
+    fig.suptitle(f"Fig. S2: coupled steer test, {count_word(n)} repeats{where} against every shell model "
                  f"({how}){not_run}", fontsize=10)
     save(fig, out_png)

@@ -1,11 +1,12 @@
-"""The coupled steer test (issue 27, Fig. S2): every shell model against the three real repeats.
+"""The coupled steer test (issue 27, Fig. S2): every shell model against a set of coupled repeats.
 
 One stage, `steer_coupled`:
-1. the pressure, one unknown shared by the repeats (roboball.diagnose.coupled.fit_pressure), and
-   each leave-one-out fold's pressure from the other two;
+1. the pressure shared by the repeats: logged with them, or, where it was not (the real robot's),
+   fitted (roboball.diagnose.coupled.fit_pressure), each leave-one-out fold's from the others;
 2. every shell model of roboball.sim.coupled.MODELS on every repeat; models with a pressure run
    at the fold's pressure, so their score on a repeat is a prediction of data not used to fit it;
-3. the authors' objective fitted with our Drake model from their parameters (Nelder-Mead);
+3. at an unlogged pressure, the authors' objective fitted with our Drake model from their
+   parameters (Nelder-Mead), as they fitted theirs to the real repeats;
 4. the diagnosed model, held out: per fold, effects screened and refitted on the two other
    repeats (roboball.diagnose.coupled_effects.held_out), scored on the left-out one;
 5. the table (RMS per model, repeat and coordinate; which scores are held out), the figure, and a
@@ -44,9 +45,11 @@ def _trace(name, rep, pred) -> pd.DataFrame:
                          "pipe_angle_rad": pred["pipe_angle_rad"], "steer_angle_rad": pred["steer_angle_rad"]})
 
 
-def run_models(reps, laws, friction, pressure, authors_fit, diagnosed, extra=()) -> tuple[pd.DataFrame, pd.DataFrame]:
+def run_models(reps, laws, friction, pressure, authors_fit, diagnosed, extra=(),
+               in_sample=IN_SAMPLE) -> tuple[pd.DataFrame, pd.DataFrame]:
     """(table, traces): every model of MODELS and `extra` on every repeat (see the module docstring);
-    with pressure-free shell laws, the injected shell and the models without a pressure."""
+    with pressure-free shell laws, the injected shell and the models without a pressure.
+    `in_sample`: the models fitted to these repeats (the authors' pairs to the real ones)."""
     from roboball.diagnose.coupled import run
     from roboball.sim.coupled import MODELS, coupled_spec, fixed_hydro
 
@@ -57,14 +60,15 @@ def run_models(reps, laws, friction, pressure, authors_fit, diagnosed, extra=())
             spec = coupled_spec(*m.shell(p, laws), friction)
             spec.pressure_kpa = p
             pred = run(spec, r)
-            rows.append(_rows(m.name, r, pred, m.name not in IN_SAMPLE, p))
+            rows.append(_rows(m.name, r, pred, m.name not in in_sample, p))
             traces.append(_trace(m.name, r, pred))
-    contact, shell = fixed_hydro(*authors_fit["ours_params"])(None, laws)
-    ours = coupled_spec(contact, shell, friction)
-    for r in reps:
-        pred = run(ours, r)
-        rows.append(_rows("ours_nm", r, pred, False, None))
-        traces.append(_trace("ours_nm", r, pred))
+    if authors_fit is not None:      # our refit of the authors' objective (pressure not logged)
+        contact, shell = fixed_hydro(*authors_fit["ours_params"])(None, laws)
+        ours = coupled_spec(contact, shell, friction)
+        for r in reps:
+            pred = run(ours, r)
+            rows.append(_rows("ours_nm", r, pred, False, None))
+            traces.append(_trace("ours_nm", r, pred))
     by_name = {r.name: r for r in reps}
     for fold in diagnosed:
         r = by_name[fold["fold"]]
@@ -82,6 +86,13 @@ def models_for(laws, models) -> tuple:
     repeats' pressure unknown and not fittable), the injected shell (its zeta and omega_n are the
     laws' constants) and the models that need no pressure."""
     return tuple(m for m in models if not laws.pressure_free or not m.needs_pressure or m.name == "injected")
+
+
+def logged_pressure(reps, p_kpa: float):
+    """The pressure the recordings' sidecars (or manifest) log, shared by the repeats: every
+    model runs at it; nothing is fitted."""
+    from roboball.diagnose.coupled import PressureFit
+    return PressureFit(float(p_kpa), (float(p_kpa), float(p_kpa)), (), [], {r.name: float(p_kpa) for r in reps})
 
 
 def unfitted_pressure(reps):
@@ -129,7 +140,11 @@ def table_markdown(table: pd.DataFrame, summary: dict) -> str:
         lines.append(f"| {r.model} | {r['repeat']} | {'yes' if r.held_out else 'no (in-sample)'} | {p} | "
                      f"{r.rms_pipe_angle_rad:.4f} | {r.rms_steer_angle_rad:.4f} |")
     pf, af = summary["pressure"], summary["authors_objective"]
-    if pf.get("model") == "not fitted":
+    if pf.get("model") == "logged":
+        lines += ["", f"Pressure: logged with the recordings, {pf['p_kpa']:g} kPa; every model runs at it, nothing "
+                  "is fitted to the repeats (the authors' objective is refitted only where the pressure was not "
+                  "logged, as for the real repeats)."]
+    elif pf.get("model") == "not fitted":
         lines += ["", "Pressure (not logged): not fitted. The campaign's shell laws do not depend on pressure (its "
                   f"shell releases at one pressure or at none logged: zeta {pf['zeta']:.3f}, omega_n "
                   f"{pf['omega_n_rad_s']:.3f} rad/s), so the injected shell runs with them and the models that "
@@ -140,18 +155,22 @@ def table_markdown(table: pd.DataFrame, summary: dict) -> str:
                   f"{pf['p_kpa']:.1f} kPa, 95 % profile interval [{pf['ci95_kpa'][0]:.1f}, {pf['ci95_kpa'][1]:.1f}] kPa; "
                   "leave-one-out folds: " + ", ".join(f"{v:.1f}" for v in pf["folds"].values()) + " kPa"
                   + (" (beyond the shell releases' pressures: the shell laws extrapolated)." if pf.get("extrapolated") else ".")]
-    lines += ["", f"Authors' objective (exp(-t/3 s)-weighted mean squared pipe-angle error against the repeats' "
-              f"average) in our Drake model: theirs {af['theirs_loss_rad2']:.5f} rad^2 at "
-              f"[{af['theirs_params'][0]:.4g} Pa, {af['theirs_params'][1]:.4g} s/m]; ours {af['ours_loss_rad2']:.5f} "
-              f"rad^2 at [{af['ours_params'][0]:.4g} Pa, {af['ours_params'][1]:.4g} s/m] "
-              f"({af['evaluations']} Drake runs).", ""]
+    if af is not None:
+        lines += ["", f"Authors' objective (exp(-t/3 s)-weighted mean squared pipe-angle error against the repeats' "
+                  f"average) in our Drake model: theirs {af['theirs_loss_rad2']:.5f} rad^2 at "
+                  f"[{af['theirs_params'][0]:.4g} Pa, {af['theirs_params'][1]:.4g} s/m]; ours {af['ours_loss_rad2']:.5f} "
+                  f"rad^2 at [{af['ours_params'][0]:.4g} Pa, {af['ours_params'][1]:.4g} s/m] "
+                  f"({af['evaluations']} Drake runs).", ""]
+    else:
+        lines.append("")
     lines += [f"Not run: `{m}`, {why}.\n" for m, why in summary.get("left_out", {}).items()]
     return "\n".join(lines)
 
 
-def calibrated_shell(hydro_fit: str, reps, pressure, laws) -> tuple[tuple, dict]:
+def calibrated_shell(hydro_fit: str, reps, pressure, laws, logged: bool = False) -> tuple[tuple, dict]:
     """((the calibrated hydroelastic shell,) or (), {model: why it is left out}): it runs only at
-    pressures its calibration covers, so only when every repeat's (fold's) pressure is inside."""
+    pressures its calibration covers, so only when every repeat's (fold's) pressure is inside;
+    `logged`: the pressure was logged, not fitted (said so in the reason)."""
     if not hydro_fit:
         return (), {}
     from roboball.pipeline.simulation import in_tuned_range, tuned_at, tuned_range
@@ -160,18 +179,22 @@ def calibrated_shell(hydro_fit: str, reps, pressure, laws) -> tuple[tuple, dict]
     used = [pressure.folds.get(r.name, pressure.p_kpa) for r in reps]
     outside = sorted({round(float(p), 1) for p in used if not laws.pressure_free and not in_tuned_range(p, tuned)})
     if outside:
-        return (), {"hydro_tuned": f"the repeats' fitted pressures {', '.join(f'{p:g}' for p in outside)} kPa lie "
+        how, verb = ("logged pressure", "lies") if logged else ("fitted pressures", "lie")
+        return (), {"hydro_tuned": f"the repeats' {how} {', '.join(f'{p:g}' for p in outside)} kPa {verb} "
                                    f"outside its calibrated {tuned[0]:g}-{tuned[1]:g} kPa"}
     return (calibrated(lambda p: tuned_at(hydro_fit, p)),), {}
 
 
 def steer_coupled(recordings: list, regression: str, friction_steer: str, out_json: str, out_csv: str,
                   out_png: str, table_csv: str, table_md: str, nm_evals: int = 30, hydro_fit: str = "",
-                  campaign: str = "") -> None:
+                  campaign: str = "", pressure_kpa: float | None = None, diagnose: int = 1) -> None:
     """Fig. S2, its table (CSV + Markdown), the traces (CSV) and the summary (JSON) of the
     coupled steer test (see the module docstring); with `hydro_fit` (the hydroelastic
     calibration's table) the calibrated shell runs too; `campaign` names the repeats' campaign in
-    the figure's title."""
+    the figure's title.  `pressure_kpa`: the repeats' logged pressure; every model runs at it and
+    neither it nor the authors' objective is fitted (the authors refitted their pair because the
+    real repeats' pressure was not logged; at a logged one the calibrated shell is the pipeline's
+    own answer).  `diagnose` 0: no diagnosed model (a campaign whose recordings are not diagnosed)."""
     from roboball.diagnose.coupled import fit_authors_objective, fit_pressure, read_repeats
     from roboball.diagnose.coupled_effects import held_out
     from roboball.figures.coupled import plot
@@ -184,29 +207,44 @@ def steer_coupled(recordings: list, regression: str, friction_steer: str, out_js
     reps = read_repeats(recordings)
     laws = ShellLaws.from_regression_csv(regression)
     friction = read_stand_friction(friction_steer)
-    pressure = unfitted_pressure(reps) if laws.pressure_free else fit_pressure(reps, laws, friction)
-    authors = fit_authors_objective(reps, friction, max_evals=nm_evals)
-    diagnosed = held_out(reps, laws, friction, pressure)
-    extra, left_out = calibrated_shell(hydro_fit, reps, pressure, laws)
-    table, traces = run_models(reps, laws, friction, pressure, authors, diagnosed, extra)
+    logged = pressure_kpa is not None
+    if laws.pressure_free:
+        pressure = unfitted_pressure(reps)
+    else:
+        pressure = logged_pressure(reps, pressure_kpa) if logged else fit_pressure(reps, laws, friction)
+    authors = None if logged else fit_authors_objective(reps, friction, max_evals=nm_evals)
+    diagnosed = held_out(reps, laws, friction, pressure) if diagnose else []
+    extra, left_out = calibrated_shell(hydro_fit, reps, pressure, laws, logged)
+    # the authors fitted their pairs to repeats of unlogged pressure (the real ones), not to these
+    table, traces = run_models(reps, laws, friction, pressure, authors, diagnosed, extra,
+                               in_sample=() if logged else IN_SAMPLE)
     summary = {
-        "pressure": ({"p_kpa": None, "model": "not fitted", "zeta": laws.zeta_a, "omega_n_rad_s": laws.omega_n_c,
-                      "folds": {}} if laws.pressure_free else
-                     {"p_kpa": pressure.p_kpa, "ci95_kpa": list(pressure.ci95_kpa), "folds": pressure.folds,
-                      "grid_kpa": list(pressure.grid_kpa), "sse_grid_rad2": pressure.sse_grid,
-                      "extrapolated": pressure.extrapolated, "model": "injected"}),
+        "pressure": _pressure_summary(laws, pressure, logged),
         "authors_objective": authors,
         "diagnosed": [{k: v for k, v in f.items() if k != "spec"} for f in diagnosed],
         "diagnosed_beats_paper_models": beats_paper_models(table),
         "friction_steer": friction,
-        "left_out": left_out,
+        "left_out": {**left_out, **({} if diagnose else {"diagnosed": "the campaign's recordings are not diagnosed "
+                                                                     "(config diagnose_recordings)"})},
     }
-    plot(traces, table, out_png, campaign=campaign, pressure_free=laws.pressure_free, left_out=left_out)
+    plot(traces, table, out_png, campaign=campaign, pressure_free=laws.pressure_free, left_out=summary["left_out"],
+         logged_kpa=pressure_kpa if logged and not laws.pressure_free else None)
     write_csv_atomic(table, table_csv)
     write_text_atomic(table_md, table_markdown(table, summary))
     write_csv_atomic(traces, out_csv)
     summary["wall_s"] = time.perf_counter() - t0
     write_json_atomic(out_json, summary)
-    print(f"steer_coupled: pressure {summary['pressure']['p_kpa']} kPa {pressure.ci95_kpa}; authors' loss theirs "
-          f"{authors['theirs_loss_rad2']:.5f}, ours {authors['ours_loss_rad2']:.5f}; diagnosed beats the paper "
-          f"models on {summary['diagnosed_beats_paper_models']}; {summary['wall_s']:.1f} s")
+    said = (f"authors' loss theirs {authors['theirs_loss_rad2']:.5f}, ours {authors['ours_loss_rad2']:.5f}; "
+            if authors else "")
+    print(f"steer_coupled: pressure {summary['pressure']['p_kpa']} kPa ({summary['pressure']['model']}); {said}"
+          f"diagnosed beats the paper models on {summary['diagnosed_beats_paper_models']}; {summary['wall_s']:.1f} s")
+
+
+def _pressure_summary(laws, pressure, logged: bool) -> dict:
+    if laws.pressure_free:
+        return {"p_kpa": None, "model": "not fitted", "zeta": laws.zeta_a, "omega_n_rad_s": laws.omega_n_c, "folds": {}}
+    if logged:
+        return {"p_kpa": pressure.p_kpa, "model": "logged", "folds": pressure.folds}
+    return {"p_kpa": pressure.p_kpa, "ci95_kpa": list(pressure.ci95_kpa), "folds": pressure.folds,
+            "grid_kpa": list(pressure.grid_kpa), "sse_grid_rad2": pressure.sse_grid,
+            "extrapolated": pressure.extrapolated, "model": "injected"}

@@ -156,21 +156,41 @@ class Campaign:
                 if (d, j, "majd") in self.fits(friction)}
 
     # ---- the coupled steer test (Fig. S2) ----------------------------------------------------
-    def coupled_dataset(self) -> str | None:
-        return next((d for d in self.datasets if len(self.stems("steer_coupled", d)) >= 2), None)
+    def coupled_groups(self) -> dict:
+        """Each dataset's coupled recordings as sets of repeats of one experiment: one set per
+        logged pressure, and one of those whose pressure is not logged (the real robot's).  Set
+        name -> (dataset, stems, pressure in kPa or None); the name, which suffixes Fig. S2's
+        files, joins the dataset's id and the logged pressure (`real`, `testbed_6.9kpa`)."""
+        out = {}
+        for d in self.datasets:
+            by_p: dict = {}
+            for s in self.stems("steer_coupled", d):
+                p = self.pressure(s)
+                by_p.setdefault(None if p is None else round(p, 6), []).append(s)
+            for p in sorted(by_p, key=lambda v: (v is not None, v or 0.0)):
+                name = d if p is None else f"{d}_{p:g}kpa"
+                out[name] = (d, by_p[p], p)
+        return out
 
-    def coupled_plan(self, friction: dict) -> tuple:
-        """(the dataset whose coupled repeats make Fig. S2, or None; why not): it needs two
-        repeats, that campaign's steer Majd fit, and shell laws (the regression, else that
-        campaign's shell releases)."""
-        cd = self.coupled_dataset()
-        if cd is None:
-            return None, "fewer than two steer_coupled recordings in one campaign"
-        if (cd, "steer", "majd") not in self.fits(friction):
-            return None, f"no steer_stand Majd fit in '{self.name(cd)}' for its steer friction"
-        if not self.has_regression() and not self.stems("shell_rock", cd):
-            return None, f"no shell regression and no shell_rock recording in '{self.name(cd)}' to take the shell laws from"
-        return cd, ""
+    def coupled_plan(self, friction: dict) -> tuple[dict, list]:
+        """({set name: (dataset, stems, pressure)} of the sets of repeats that make a Fig. S2,
+        [(set name, why not)] of the others): a set needs two repeats (leave-one-out), its
+        dataset's steer Majd fit, and shell laws (the regression, else its dataset's shell
+        releases)."""
+        ok, skipped = {}, []
+        fits = self.fits(friction)
+        for name, (d, stems, p) in self.coupled_groups().items():
+            if len(stems) < 2:
+                why = "one steer_coupled recording; leave-one-out needs two repeats"
+            elif (d, "steer", "majd") not in fits:
+                why = f"no steer_stand Majd fit in '{self.name(d)}' for its steer friction"
+            elif not self.has_regression() and not self.stems("shell_rock", d):
+                why = f"no shell regression and no shell_rock recording in '{self.name(d)}' to take the shell laws from"
+            else:
+                ok[name] = (d, stems, p)
+                continue
+            skipped.append((name, why))
+        return ok, skipped
 
     def diagnosed_stems(self) -> list:
         """The stand and shell recordings diagnosed one by one: those of the datasets whose
@@ -230,13 +250,19 @@ def plan_lines(camp: Campaign, friction: dict) -> list:
                        "model is scored there on the run its diagnosis was fitted on (in sample, marked in Figs. 13, 14)")
     else:
         say(False, "Figs. 13, 14 (ramp descents, PME)", "no ramp recording")
-    cd, why = camp.coupled_plan(friction)
-    if cd is None:
-        say(False, "Fig. S2 (coupled steer test)", why)
-    else:
-        say(True, f"Fig. S2 (coupled steer test, {len(camp.stems('steer_coupled', cd))} repeats of "
-            f"'{camp.name(cd)}')" + ("" if reg else ": shell laws held at its shell releases' zeta and omega_n "
-                                      "(no regression); the models that need the pressure are left out"), "")
+    sets, skipped = camp.coupled_plan(friction)
+    for name, (d, stems, p) in sets.items():
+        at = "pressure not logged" if p is None else f"at {p:g} kPa"
+        say(True, f"Fig. S2 (coupled steer test, {len(stems)} repeats of '{camp.name(d)}', {at})"
+            + ("" if reg else ": shell laws held at its shell releases' zeta and omega_n (no regression); the "
+               "models that need the pressure are left out")
+            + ("" if camp.datasets[d]["diagnose_recordings"] else "; no diagnosed model (diagnose_recordings)"), "")
+    for name, why in skipped:
+        d, stems, p = camp.coupled_groups()[name]
+        say(False, f"Fig. S2 (coupled steer test of '{camp.name(d)}', "
+            + ("pressure not logged)" if p is None else f"at {p:g} kPa)"), why)
+    if not camp.stems("steer_coupled"):
+        say(False, "Fig. S2 (coupled steer test)", "no steer_coupled recording")
     diag = camp.diagnosed_stems()
     say(bool(diag), f"diagnoses of {len(diag)} stand and shell recordings", "no campaign asks for them "
         "(diagnose_recordings) or none has stand or shell recordings")

@@ -17,7 +17,7 @@ import pandas as pd
 from roboball.atomic import write_csv_atomic
 from roboball.ingest.recording import write_recording
 from roboball.testbed.physics import campaign_truth, true_robot
-from roboball.testbed.run import ALL_EXTRAS, ramp_exit_time, run_free
+from roboball.testbed.run import ALL_EXTRAS, coupled_release, ramp_exit_time, run_free
 from roboball.testbed.sensors import hand_phase, measure
 
 SIGNAL = {"steer_stand": "steer_angle_rad", "drive_stand": "drive_angle_rad", "shell_rock": "pipe_angle_rad"}
@@ -41,6 +41,10 @@ def jobs(truth: dict) -> list[dict]:
     for p in c["pressures_kpa"]:
         for r in range(1, c["ramp"]["runs"] + 1):
             out.append(dict(file=f"ramp/ramp_{p:.1f}kpa_r{r}.csv", kind="ramp", pressure_kpa=p, run=r))
+    for p in c["pressures_kpa"]:
+        for r in range(1, c.get("steer_coupled", {}).get("runs", 0) + 1):
+            out.append(dict(file=f"steer_coupled/steer_coupled_{p:.1f}kpa_r{r}.csv", kind="steer_coupled",
+                            pressure_kpa=p, run=r))
     return out
 
 
@@ -123,6 +127,23 @@ def ramp_recording(p_kpa: float, truth: dict, rng, extras=ALL_EXTRAS, extra_term
     return dense[keep], exit_s, n_pre / rate
 
 
+def coupled_recording(p_kpa: float, truth: dict, rng) -> pd.DataFrame:
+    """The coupled steer test as the real robot's repeats were made (data README): the shell
+    tilted by hand, the pendulum hanging near plumb on its free steer joint, let go; shell and
+    pendulum swing together until both settle.  Like the real logs it is trimmed at the let-go,
+    starting a few samples after it, at their slower sampling (dense 1 kHz here)."""
+    c = truth["campaign"]["steer_coupled"]
+    rate = truth["simulation"]["sample_rate_hz"]
+    pipe0 = float(rng.uniform(*c["release_pipe_rad"]))
+    steer0 = -pipe0 + float(rng.uniform(*c["pendulum_from_plumb_rad"]))   # the pendulum's own angle to the vertical
+    trim = float(rng.uniform(*c["trim_s"]))
+    t = np.arange(int(round((trim + c["duration_s"]) * rate)) + 1) / rate
+    y = coupled_release(p_kpa, t, pipe0, steer0, None, truth)
+    keep = t >= trim - 1e-12
+    return pd.DataFrame({"time_s": t[keep] - t[keep][0], "pipe_angle_rad": y["pipe_angle_rad"][keep],
+                         "steer_angle_rad": y["steer_angle_rad"][keep]})
+
+
 def make_file(job: dict, out_dir: str, truth: dict) -> dict:
     rng = _rng(truth["seed"], job["file"])
     kind, p = job["kind"], job["pressure_kpa"]
@@ -130,12 +151,17 @@ def make_file(job: dict, out_dir: str, truth: dict) -> dict:
     if kind == "ramp":
         dense, exit_s, release_s = ramp_recording(p, truth, rng)
         meta.update(ramp_angle_deg=true_robot(truth).ramp_angle_deg, ramp_exit_s=exit_s)
+    elif kind == "steer_coupled":
+        dense = coupled_recording(p, truth, rng)
     else:
         c = truth["campaign"][kind]
         dense = release_recording(kind, p, c["releases_rad"], c["free_s"], truth, rng)
         if kind == "shell_rock":
             meta["steer_joint"] = "locked"     # the paper's clamp (Fig. 9) holds the pendulum
-    rec = measure(dense, truth["sensors"], rng)
+    sensors = truth["sensors"]
+    if kind == "steer_coupled":        # the real coupled repeats' logger: about 50 Hz
+        sensors = dict(sensors, rate_hz=truth["campaign"]["steer_coupled"]["rate_hz"])
+    rec = measure(dense, sensors, rng)
     path = Path(out_dir) / job["file"]
     path.parent.mkdir(parents=True, exist_ok=True)
     write_recording(path, rec, meta)

@@ -1,0 +1,55 @@
+"""The coupled steer test of repeats at a logged pressure (a campaign's coupled runs, issue 46):
+every model runs at that pressure, nothing is fitted to the repeats, and a campaign whose
+recordings are not diagnosed gets no diagnosed model, said in the table, the figure and the JSON."""
+import json
+
+import numpy as np
+import pandas as pd
+
+from roboball.diagnose.coupled import Repeat, run
+from roboball.ingest.recording import write_recording
+from roboball.pipeline.coupled import steer_coupled
+from roboball.sim.coupled import model_spec
+from roboball.sim.schedule import ShellLaws
+
+LAWS = ShellLaws(0.23, -0.0386, 2.70, 0.0276)
+FRICTION = {"f_w": 0.2, "f_c": 0.45, "sigma": 10.0, "omega_c": 0.1, "n": 1.0}
+P_KPA = 10.3
+
+
+def _recording(path, pipe0, steer0, rate=50.0, duration=3.0):
+    """A noiseless coupled run of the injected model at P_KPA, written as a recording."""
+    t = np.arange(0.0, duration, 1.0 / rate)
+    pred = run(model_spec("injected", P_KPA, LAWS, FRICTION), Repeat(path.stem, t, t * 0 + pipe0, t * 0 + steer0))
+    rec = pd.DataFrame({"time_s": t, "pipe_angle_rad": pred["pipe_angle_rad"], "steer_angle_rad": pred["steer_angle_rad"]})
+    write_recording(path, rec, {"kind": "steer_coupled", "pressure_kpa": P_KPA})
+    return str(path)
+
+
+def test_repeats_at_a_logged_pressure_run_every_model_there_and_fit_nothing(tmp_path):
+    recs = [_recording(tmp_path / "c_r1.csv", -0.36, 0.38), _recording(tmp_path / "c_r2.csv", -0.33, 0.35)]
+    reg = tmp_path / "reg.csv"
+    reg.write_text("name,value\nzeta_a,0.23\nzeta_b,-0.0386\nomega_n_c,2.70\nomega_n_d,0.0276\n")
+    fric = tmp_path / "steer_majd.json"
+    fric.write_text(json.dumps(FRICTION))
+    out = {k: str(tmp_path / v) for k, v in dict(out_json="s.json", out_csv="traces.csv", out_png="s2.png",
+                                                  table_csv="t.csv", table_md="t.md").items()}
+    steer_coupled(recs, str(reg), str(fric), pressure_kpa=P_KPA, diagnose=0, campaign="lab", **out)
+    table = pd.read_csv(out["table_csv"])
+    # nothing fitted to these repeats: no refit of the authors' objective, no diagnosis, every
+    # score a prediction, every pressure the logged one
+    assert "ours_nm" not in set(table.model) and "diagnosed" not in set(table.model)
+    assert table.held_out.all()
+    assert set(table.pressure_kpa.dropna()) == {P_KPA}
+    rms = table.groupby("model")[["rms_pipe_angle_rad", "rms_steer_angle_rad"]].max()
+    # the model that made the runs, at the logged pressure, reproduces them; the others do not
+    assert (rms.loc["injected"] < 1e-3).all()
+    assert (rms.drop("injected").rms_pipe_angle_rad > 0.02).all()
+    summary = json.loads(open(out["out_json"]).read())
+    assert summary["pressure"] == {"p_kpa": P_KPA, "model": "logged", "folds": {"c_r1": P_KPA, "c_r2": P_KPA}}
+    assert summary["authors_objective"] is None and summary["diagnosed"] == []
+    assert summary["left_out"] == {"diagnosed": "the campaign's recordings are not diagnosed (config diagnose_recordings)"}
+    md = open(out["table_md"]).read()
+    assert f"Pressure: logged with the recordings, {P_KPA:g} kPa" in md and "Authors' objective" not in md
+    assert "Not run: `diagnosed`" in md
+    assert (tmp_path / "s2.png").stat().st_size > 10000 and (tmp_path / "s2.pdf").is_file()
