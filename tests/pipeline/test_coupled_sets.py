@@ -26,15 +26,21 @@ def _recording(path, pipe0, steer0, rate=50.0, duration=3.0):
     return str(path)
 
 
-def test_repeats_at_a_logged_pressure_run_every_model_there_and_fit_nothing(tmp_path):
+def _run(tmp_path, laws: ShellLaws) -> dict:
     recs = [_recording(tmp_path / "c_r1.csv", -0.36, 0.38), _recording(tmp_path / "c_r2.csv", -0.33, 0.35)]
     reg = tmp_path / "reg.csv"
-    reg.write_text("name,value\nzeta_a,0.23\nzeta_b,-0.0386\nomega_n_c,2.70\nomega_n_d,0.0276\n")
+    reg.write_text(f"name,value\nzeta_a,{laws.zeta_a}\nzeta_b,{laws.zeta_b}\nomega_n_c,{laws.omega_n_c}\n"
+                   f"omega_n_d,{laws.omega_n_d}\n")
     fric = tmp_path / "steer_majd.json"
     fric.write_text(json.dumps(FRICTION))
     out = {k: str(tmp_path / v) for k, v in dict(out_json="s.json", out_csv="traces.csv", out_png="s2.png",
                                                   table_csv="t.csv", table_md="t.md").items()}
     steer_coupled(recs, str(reg), str(fric), pressure_kpa=P_KPA, diagnose=0, campaign="lab", **out)
+    return out
+
+
+def test_repeats_at_a_logged_pressure_run_every_model_there_and_fit_nothing(tmp_path):
+    out = _run(tmp_path, LAWS)
     table = pd.read_csv(out["table_csv"])
     # nothing fitted to these repeats: no refit of the authors' objective, no diagnosis, every
     # score a prediction, every pressure the logged one
@@ -53,3 +59,18 @@ def test_repeats_at_a_logged_pressure_run_every_model_there_and_fit_nothing(tmp_
     assert f"Pressure: logged with the recordings, {P_KPA:g} kPa" in md and "Authors' objective" not in md
     assert "Not run: `diagnosed`" in md
     assert (tmp_path / "s2.png").stat().st_size > 10000 and (tmp_path / "s2.pdf").is_file()
+
+
+def test_at_a_logged_pressure_the_hydroelastic_models_run_without_a_regression(tmp_path):
+    """Shell laws from releases at one pressure do not depend on it, so an unlogged pressure
+    cannot be fitted and the models that need one are left out; a logged one is their input."""
+    constant = ShellLaws(float(LAWS.zeta(P_KPA)), 0.0, float(LAWS.omega_n(P_KPA)), 0.0)
+    out = _run(tmp_path, constant)
+    table = pd.read_csv(out["table_csv"])
+    assert {"point", "injected", "hydroelastic", "hydro_half", "authors_nm", "authors_hand"} == set(table.model)
+    assert set(table[table.model.isin(["injected", "hydroelastic", "hydro_half"])].pressure_kpa) == {P_KPA}
+    # the same laws at that pressure: the injected shell still reproduces the runs
+    assert table[table.model == "injected"].rms_pipe_angle_rad.max() < 1e-3
+    summary = json.loads(open(out["out_json"]).read())
+    assert summary["pressure"]["model"] == "logged" and summary["pressure"]["laws"] == "pressure-free"
+    assert "the hydroelastic models take their modulus from the logged pressure (eq. 10)" in open(out["table_md"]).read()

@@ -46,15 +46,16 @@ def _trace(name, rep, pred) -> pd.DataFrame:
 
 
 def run_models(reps, laws, friction, pressure, authors_fit, diagnosed, extra=(),
-               in_sample=IN_SAMPLE) -> tuple[pd.DataFrame, pd.DataFrame]:
+               in_sample=IN_SAMPLE, logged: bool = False) -> tuple[pd.DataFrame, pd.DataFrame]:
     """(table, traces): every model of MODELS and `extra` on every repeat (see the module docstring);
-    with pressure-free shell laws, the injected shell and the models without a pressure.
-    `in_sample`: the models fitted to these repeats (the authors' pairs to the real ones)."""
+    with pressure-free shell laws and no logged pressure, the injected shell and the models
+    without a pressure.  `in_sample`: the models fitted to these repeats (the authors' pairs to
+    the real ones); `logged`: `pressure` was logged with the repeats."""
     from roboball.diagnose.coupled import run
     from roboball.sim.coupled import MODELS, coupled_spec, fixed_hydro
 
     rows, traces = [], [_trace("recording", r, {"pipe_angle_rad": r.pipe, "steer_angle_rad": r.steer}) for r in reps]
-    for m in (*models_for(laws, MODELS), *models_for(laws, extra)):
+    for m in (*models_for(laws, MODELS, logged), *models_for(laws, extra, logged)):
         for r in reps:
             p = pressure.folds.get(r.name, pressure.p_kpa) if m.needs_pressure else None
             spec = coupled_spec(*m.shell(p, laws), friction)
@@ -73,19 +74,20 @@ def run_models(reps, laws, friction, pressure, authors_fit, diagnosed, extra=(),
     for fold in diagnosed:
         r = by_name[fold["fold"]]
         pred = run(fold["spec"], r)
-        rows.append(_rows("diagnosed", r, pred, True, None if laws.pressure_free else fold["pressure_kpa"]))
+        rows.append(_rows("diagnosed", r, pred, True, None if laws.pressure_free and not logged else fold["pressure_kpa"]))
         traces.append(_trace("diagnosed", r, pred))
     table = pd.DataFrame(rows)
-    if laws.pressure_free:           # the pressure was not fitted: no row has one
+    if laws.pressure_free and not logged:      # the pressure was neither logged nor fitted: no row has one
         table["pressure_kpa"] = np.nan
     return table, pd.concat(traces, ignore_index=True)
 
 
-def models_for(laws, models) -> tuple:
-    """The shell models that can run with `laws`: all of them, or, with pressure-free laws (the
-    repeats' pressure unknown and not fittable), the injected shell (its zeta and omega_n are the
-    laws' constants) and the models that need no pressure."""
-    return tuple(m for m in models if not laws.pressure_free or not m.needs_pressure or m.name == "injected")
+def models_for(laws, models, logged: bool = False) -> tuple:
+    """The shell models that can run with `laws`: all of them, or, with pressure-free laws and the
+    repeats' pressure not logged (so not fittable either), the injected shell (its zeta and
+    omega_n are the laws' constants) and the models that need no pressure.  At a logged pressure
+    every model runs: eq. 10's modulus needs only the pressure."""
+    return tuple(m for m in models if logged or not laws.pressure_free or not m.needs_pressure or m.name == "injected")
 
 
 def logged_pressure(reps, p_kpa: float):
@@ -143,7 +145,10 @@ def table_markdown(table: pd.DataFrame, summary: dict) -> str:
     if pf.get("model") == "logged":
         lines += ["", f"Pressure: logged with the recordings, {pf['p_kpa']:g} kPa; every model runs at it, nothing "
                   "is fitted to the repeats (the authors' objective is refitted only where the pressure was not "
-                  "logged, as for the real repeats)."]
+                  "logged, as for the real repeats)."
+                  + (f" The shell laws do not depend on pressure (no regression: zeta {pf['zeta']:.3f}, omega_n "
+                     f"{pf['omega_n_rad_s']:.3f} rad/s, the campaign's shell releases'); the hydroelastic models take "
+                     "their modulus from the logged pressure (eq. 10)." if pf.get("laws") == "pressure-free" else "")]
     elif pf.get("model") == "not fitted":
         lines += ["", "Pressure (not logged): not fitted. The campaign's shell laws do not depend on pressure (its "
                   f"shell releases at one pressure or at none logged: zeta {pf['zeta']:.3f}, omega_n "
@@ -177,7 +182,8 @@ def calibrated_shell(hydro_fit: str, reps, pressure, laws, logged: bool = False)
     from roboball.sim.coupled import calibrated
     tuned = tuned_range(hydro_fit)
     used = [pressure.folds.get(r.name, pressure.p_kpa) for r in reps]
-    outside = sorted({round(float(p), 1) for p in used if not laws.pressure_free and not in_tuned_range(p, tuned)})
+    outside = sorted({round(float(p), 1) for p in used
+                      if (logged or not laws.pressure_free) and not in_tuned_range(p, tuned)})
     if outside:
         how, verb = ("logged pressure", "lies") if logged else ("fitted pressures", "lie")
         return (), {"hydro_tuned": f"the repeats' {how} {', '.join(f'{p:g}' for p in outside)} kPa {verb} "
@@ -208,16 +214,16 @@ def steer_coupled(recordings: list, regression: str, friction_steer: str, out_js
     laws = ShellLaws.from_regression_csv(regression)
     friction = read_stand_friction(friction_steer)
     logged = pressure_kpa is not None
-    if laws.pressure_free:
-        pressure = unfitted_pressure(reps)
+    if logged:
+        pressure = logged_pressure(reps, pressure_kpa)
     else:
-        pressure = logged_pressure(reps, pressure_kpa) if logged else fit_pressure(reps, laws, friction)
+        pressure = unfitted_pressure(reps) if laws.pressure_free else fit_pressure(reps, laws, friction)
     authors = None if logged else fit_authors_objective(reps, friction, max_evals=nm_evals)
     diagnosed = held_out(reps, laws, friction, pressure) if diagnose else []
     extra, left_out = calibrated_shell(hydro_fit, reps, pressure, laws, logged)
     # the authors fitted their pairs to repeats of unlogged pressure (the real ones), not to these
     table, traces = run_models(reps, laws, friction, pressure, authors, diagnosed, extra,
-                               in_sample=() if logged else IN_SAMPLE)
+                               in_sample=() if logged else IN_SAMPLE, logged=logged)
     summary = {
         "pressure": _pressure_summary(laws, pressure, logged),
         "authors_objective": authors,
@@ -227,8 +233,8 @@ def steer_coupled(recordings: list, regression: str, friction_steer: str, out_js
         "left_out": {**left_out, **({} if diagnose else {"diagnosed": "the campaign's recordings are not diagnosed "
                                                                      "(config diagnose_recordings)"})},
     }
-    plot(traces, table, out_png, campaign=campaign, pressure_free=laws.pressure_free, left_out=summary["left_out"],
-         logged_kpa=pressure_kpa if logged and not laws.pressure_free else None)
+    plot(traces, table, out_png, campaign=campaign, pressure_free=laws.pressure_free and not logged,
+         left_out=summary["left_out"], logged_kpa=pressure_kpa if logged else None)
     write_csv_atomic(table, table_csv)
     write_text_atomic(table_md, table_markdown(table, summary))
     write_csv_atomic(traces, out_csv)
@@ -241,10 +247,12 @@ def steer_coupled(recordings: list, regression: str, friction_steer: str, out_js
 
 
 def _pressure_summary(laws, pressure, logged: bool) -> dict:
+    if logged:
+        return {"p_kpa": pressure.p_kpa, "model": "logged", "folds": pressure.folds,
+                **({"laws": "pressure-free", "zeta": laws.zeta_a, "omega_n_rad_s": laws.omega_n_c}
+                   if laws.pressure_free else {})}
     if laws.pressure_free:
         return {"p_kpa": None, "model": "not fitted", "zeta": laws.zeta_a, "omega_n_rad_s": laws.omega_n_c, "folds": {}}
-    if logged:
-        return {"p_kpa": pressure.p_kpa, "model": "logged", "folds": pressure.folds}
     return {"p_kpa": pressure.p_kpa, "ci95_kpa": list(pressure.ci95_kpa), "folds": pressure.folds,
             "grid_kpa": list(pressure.grid_kpa), "sse_grid_rad2": pressure.sse_grid,
             "extrapolated": pressure.extrapolated, "model": "injected"}
