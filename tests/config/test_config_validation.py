@@ -296,8 +296,9 @@ def test_manifest_reads_the_campaign():
     from roboball.ingest.manifest import read_manifest
 
     m = read_manifest(REPO / "raw_data")
-    assert len(m) == 22 and m["shell_rock_13.8kpa_r1"]["kind"] == "shell_rock"
+    assert len(m) == 32 and m["shell_rock_13.8kpa_r1"]["kind"] == "shell_rock"
     assert m["shell_rock_13.8kpa_r1"]["pressure_kpa"] == "13.8"
+    assert m["steer_coupled_6.9kpa_r2"]["kind"] == "steer_coupled" and m["steer_coupled_6.9kpa_r2"]["pressure_kpa"] == "6.9"
 
 
 def test_snakemake_refuses_a_bad_manifest_before_any_job(tmp_path):
