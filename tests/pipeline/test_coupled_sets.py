@@ -1,6 +1,5 @@
 """The coupled steer test of repeats at a logged pressure (a campaign's coupled runs, issue 46):
-every model runs at that pressure, nothing is fitted to the repeats, and a campaign whose
-recordings are not diagnosed gets no diagnosed model, said in the table, the figure and the JSON."""
+every model runs at that pressure and nothing but the held-out diagnosis is fitted to the repeats."""
 import json
 
 import numpy as np
@@ -35,29 +34,30 @@ def _run(tmp_path, laws: ShellLaws) -> dict:
     fric.write_text(json.dumps(FRICTION))
     out = {k: str(tmp_path / v) for k, v in dict(out_json="s.json", out_csv="traces.csv", out_png="s2.png",
                                                   table_csv="t.csv", table_md="t.md").items()}
-    steer_coupled(recs, str(reg), str(fric), pressure_kpa=P_KPA, diagnose=0, campaign="lab", **out)
+    steer_coupled(recs, str(reg), str(fric), pressure_kpa=P_KPA, campaign="lab", **out)
     return out
 
 
 def test_repeats_at_a_logged_pressure_run_every_model_there_and_fit_nothing(tmp_path):
     out = _run(tmp_path, LAWS)
     table = pd.read_csv(out["table_csv"])
-    # nothing fitted to these repeats: no refit of the authors' objective, no diagnosis, every
-    # score a prediction, every pressure the logged one
-    assert "ours_nm" not in set(table.model) and "diagnosed" not in set(table.model)
+    # nothing fitted to these repeats but the diagnosis, held out: no refit of the authors'
+    # objective, every score a prediction, every pressure the logged one
+    assert "ours_nm" not in set(table.model) and (table.model == "diagnosed").sum() == 2
     assert table.held_out.all()
     assert set(table.pressure_kpa.dropna()) == {P_KPA}
     rms = table.groupby("model")[["rms_pipe_angle_rad", "rms_steer_angle_rad"]].max()
     # the model that made the runs, at the logged pressure, reproduces them; the others do not
     assert (rms.loc["injected"] < 1e-3).all()
-    assert (rms.drop("injected").rms_pipe_angle_rad > 0.02).all()
+    assert (rms.drop(["injected", "diagnosed"]).rms_pipe_angle_rad > 0.02).all()
     summary = json.loads(open(out["out_json"]).read())
     assert summary["pressure"] == {"p_kpa": P_KPA, "model": "logged", "folds": {"c_r1": P_KPA, "c_r2": P_KPA}}
-    assert summary["authors_objective"] is None and summary["diagnosed"] == []
-    assert summary["left_out"] == {"diagnosed": "the campaign's recordings are not diagnosed (config diagnose_recordings)"}
+    assert summary["authors_objective"] is None and summary["left_out"] == {}
+    # the runs are the injected model's own: each fold's diagnosis at the logged pressure keeps it
+    assert [f["pressure_kpa"] for f in summary["diagnosed"]] == [P_KPA, P_KPA]
+    assert (rms.loc["diagnosed"] < 0.005).all()
     md = open(out["table_md"]).read()
     assert f"Pressure: logged with the recordings, {P_KPA:g} kPa" in md and "Authors' objective" not in md
-    assert "Not run: `diagnosed`" in md
     assert (tmp_path / "s2.png").stat().st_size > 10000 and (tmp_path / "s2.pdf").is_file()
 
 
@@ -67,7 +67,7 @@ def test_at_a_logged_pressure_the_hydroelastic_models_run_without_a_regression(t
     constant = ShellLaws(float(LAWS.zeta(P_KPA)), 0.0, float(LAWS.omega_n(P_KPA)), 0.0)
     out = _run(tmp_path, constant)
     table = pd.read_csv(out["table_csv"])
-    assert {"point", "injected", "hydroelastic", "hydro_half", "authors_nm", "authors_hand"} == set(table.model)
+    assert {"point", "injected", "hydroelastic", "hydro_half", "authors_nm", "authors_hand", "diagnosed"} == set(table.model)
     assert set(table[table.model.isin(["injected", "hydroelastic", "hydro_half"])].pressure_kpa) == {P_KPA}
     # the same laws at that pressure: the injected shell still reproduces the runs
     assert table[table.model == "injected"].rms_pipe_angle_rad.max() < 1e-3

@@ -356,7 +356,6 @@ def get_steer_coupled_each(wildcards, input, output):
         item = {"recordings": [REC[s]["src"] for s in stems_], "regression": coupled_laws(d),
                 "friction_steer": fit_json(d, "steer", "majd"), "hydro_fit": " ".join(input.hydro_fit),
                 "nm_evals": config.get("steer_coupled", {}).get("nm_evals", 30), "campaign": CAMPAIGN.name(d),
-                "diagnose": int(CAMPAIGN.datasets[d]["diagnose_recordings"]),
                 "out_json": out["summary"], "out_csv": out["traces"], "out_png": out["png"],
                 "table_csv": out["table_csv"], "table_md": out["table_md"]}
         if p is not None:

@@ -39,7 +39,10 @@ def plot(traces: pd.DataFrame, table: pd.DataFrame, out_png: str, campaign: str 
 
     repeats = list(dict.fromkeys(traces.repeat))
     models = [m for m in dict.fromkeys(traces.model) if m != "recording"]
-    fig, axes = plt.subplots(2, len(repeats), figsize=(4.6 * len(repeats), 6.6), sharex="col", squeeze=False)
+    # two repeats or fewer: three legend columns on a wider figure, so that the labels fit
+    ncol = 4 if len(repeats) >= 3 else 3
+    fig, axes = plt.subplots(2, len(repeats), figsize=(max(4.6 * len(repeats), 11.0), 6.6), sharex="col",
+                             squeeze=False)
     for j, rep in enumerate(repeats):
         d = traces[traces.repeat == rep]
         for i, (col, ylabel) in enumerate(COORDS):
@@ -57,7 +60,7 @@ def plot(traces: pd.DataFrame, table: pd.DataFrame, out_png: str, campaign: str 
                 ax.set_xlabel("time since let-go (s)")
         axes[0, j].set_title(f"repeat {rep.rsplit('_', 1)[-1]}", fontsize=10)
     handles, labels = axes[0, 0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="outside lower center", ncol=4, fontsize=8)
+    fig.legend(handles, labels, loc="outside lower center", ncol=ncol, fontsize=8)
     n = traces["repeat"].nunique()
     where = f" of {campaign}" if campaign else ""
     if pressure_free:

@@ -193,14 +193,14 @@ def calibrated_shell(hydro_fit: str, reps, pressure, laws, logged: bool = False)
 
 def steer_coupled(recordings: list, regression: str, friction_steer: str, out_json: str, out_csv: str,
                   out_png: str, table_csv: str, table_md: str, nm_evals: int = 30, hydro_fit: str = "",
-                  campaign: str = "", pressure_kpa: float | None = None, diagnose: int = 1) -> None:
+                  campaign: str = "", pressure_kpa: float | None = None) -> None:
     """Fig. S2, its table (CSV + Markdown), the traces (CSV) and the summary (JSON) of the
     coupled steer test (see the module docstring); with `hydro_fit` (the hydroelastic
     calibration's table) the calibrated shell runs too; `campaign` names the repeats' campaign in
     the figure's title.  `pressure_kpa`: the repeats' logged pressure; every model runs at it and
     neither it nor the authors' objective is fitted (the authors refitted their pair because the
     real repeats' pressure was not logged; at a logged one the calibrated shell is the pipeline's
-    own answer).  `diagnose` 0: no diagnosed model (a campaign whose recordings are not diagnosed)."""
+    own answer)."""
     from roboball.diagnose.coupled import fit_authors_objective, fit_pressure, read_repeats
     from roboball.diagnose.coupled_effects import held_out
     from roboball.figures.coupled import plot
@@ -219,7 +219,7 @@ def steer_coupled(recordings: list, regression: str, friction_steer: str, out_js
     else:
         pressure = unfitted_pressure(reps) if laws.pressure_free else fit_pressure(reps, laws, friction)
     authors = None if logged else fit_authors_objective(reps, friction, max_evals=nm_evals)
-    diagnosed = held_out(reps, laws, friction, pressure) if diagnose else []
+    diagnosed = held_out(reps, laws, friction, pressure)
     extra, left_out = calibrated_shell(hydro_fit, reps, pressure, laws, logged)
     # the authors fitted their pairs to repeats of unlogged pressure (the real ones), not to these
     table, traces = run_models(reps, laws, friction, pressure, authors, diagnosed, extra,
@@ -230,8 +230,7 @@ def steer_coupled(recordings: list, regression: str, friction_steer: str, out_js
         "diagnosed": [{k: v for k, v in f.items() if k != "spec"} for f in diagnosed],
         "diagnosed_beats_paper_models": beats_paper_models(table),
         "friction_steer": friction,
-        "left_out": {**left_out, **({} if diagnose else {"diagnosed": "the campaign's recordings are not diagnosed "
-                                                                     "(config diagnose_recordings)"})},
+        "left_out": left_out,
     }
     plot(traces, table, out_png, campaign=campaign, pressure_free=laws.pressure_free and not logged,
          left_out=summary["left_out"], logged_kpa=pressure_kpa if logged else None)

@@ -255,8 +255,7 @@ def plan_lines(camp: Campaign, friction: dict) -> list:
         at = "pressure not logged" if p is None else f"at {p:g} kPa"
         say(True, f"Fig. S2 (coupled steer test, {len(stems)} repeats of '{camp.name(d)}', {at})"
             + ("" if reg else ": shell laws held at its shell releases' zeta and omega_n (no regression)"
-               + ("" if p is not None else "; the models that need the pressure are left out"))
-            + ("" if camp.datasets[d]["diagnose_recordings"] else "; no diagnosed model (diagnose_recordings)"), "")
+               + ("" if p is not None else "; the models that need the pressure are left out")), "")
     for name, why in skipped:
         d, stems, p = camp.coupled_groups()[name]
         say(False, f"Fig. S2 (coupled steer test of '{camp.name(d)}', "
