@@ -198,3 +198,44 @@ def test_the_coupled_table_says_what_each_model_key_stands_for():
     assert "`hydro_half`: hydroelastic, x0.5 dissipation (paper's tuned)" in md
     assert "`hydro_tuned`: hydroelastic, calibrated (Fig. S3)" in md
     assert "`diagnosed`: diagnosed (held out)" in md
+
+
+# ---- a logged pressure -----------------------------------------------------------------------
+def _logged(path, p_kpa, duration=3.0):
+    """A coupled recording of the injected model at `p_kpa`, its pressure in the sidecar (or none)."""
+    from roboball.ingest.recording import write_recording
+    rep = _synthetic(model_spec("injected", 10.3, LAWS, FRICTION), path.stem, duration=duration)
+    rec = pd.DataFrame({"time_s": rep.t, "pipe_angle_rad": rep.pipe, "steer_angle_rad": rep.steer})
+    write_recording(path, rec, {"kind": "steer_coupled", "pressure_kpa": p_kpa})
+    return str(path)
+
+
+def test_the_logged_pressure_of_coupled_repeats_is_shared_or_refused_in_one_line(tmp_path):
+    from roboball.diagnose.coupled import logged_pressure_of
+    from roboball.errors import RoboballError
+    a, b = _logged(tmp_path / "a.csv", 10.3, 1.0), _logged(tmp_path / "b.csv", 10.3, 1.0)
+    none, other = _logged(tmp_path / "n.csv", None, 1.0), _logged(tmp_path / "o.csv", 13.8, 1.0)
+    assert logged_pressure_of([a, b]) == 10.3 and logged_pressure_of([none]) is None
+    assert logged_pressure_of([none, a], pressure_kpa=6.9) == 6.9          # the flag speaks for all
+    for paths, bad in (([a, other], other), ([a, none], none)):
+        with pytest.raises(RoboballError) as info:
+            logged_pressure_of(paths)
+        assert str(info.value).startswith(f"{bad}: pressure ") and "share their pressure" in str(info.value)
+        assert "\n" not in str(info.value)
+
+
+def test_diagnose_takes_a_coupled_recordings_logged_pressure_instead_of_fitting_one(tmp_path):
+    """The contract's steer_coupled baseline fits the release states only: a pressure the sidecar
+    logs is the baseline's, and the injected model that made the run at it needs nothing added."""
+    path = _logged(tmp_path / "run.csv", 10.3)
+    reg, fric = tmp_path / "reg.csv", tmp_path / "steer.json"
+    reg.write_text(f"name,value\nzeta_a,{LAWS.zeta_a}\nzeta_b,{LAWS.zeta_b}\nomega_n_c,{LAWS.omega_n_c}\n"
+                   f"omega_n_d,{LAWS.omega_n_d}\n")
+    fric.write_text(json.dumps(FRICTION))
+    out = tmp_path / "d"
+    assert cli_main(["diagnose", path, "--out", str(out), "--regression", str(reg), "--friction-steer", str(fric)]) == 0
+    js = json.loads((out / "diagnosis.json").read_text())
+    assert js["baseline"]["pressure_kpa"] == 10.3 and js["baseline"]["fitted"] == {}
+    assert "at the logged pressure" in js["baseline"]["description"]
+    assert js["fit"]["rmse_before"] < 1e-3
+    assert "Logged pressure 10.3 kPa (not fitted)." in (out / "report.md").read_text()

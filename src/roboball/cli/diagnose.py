@@ -105,17 +105,19 @@ def _is_coupled(args) -> bool:
 
 def cmd_diagnose_coupled(args) -> int:
     """The coupled steer test: diagnosed in Drake (roboball.diagnose.coupled_report)."""
+    from roboball.diagnose.coupled import logged_pressure_of
     from roboball.diagnose.coupled_report import diagnose_coupled, read_inputs
 
     t0 = time.perf_counter()
     friction = args.friction_steer or COUPLED_FRICTION
     inputs = read_inputs(args.recording, args.regression, friction)
+    pressure = logged_pressure_of(args.recording, args.pressure_kpa)     # None: fitted on the data
     label = " + ".join(args.recording)
     progress = Progress(label, verbose=True)
     progress.stage = "Drake runs of the coupled model (pressure, screen, refit, held-out folds)"
     progress.say(f"diagnosing {label}: {progress.stage} ...")
     try:
-        js = diagnose_coupled(*inputs, args.out, log=progress)
+        js = diagnose_coupled(*inputs, args.out, log=progress, pressure_kpa=pressure)
     except ValueError as exc:
         raise RoboballError(f"{label}: {exc}")
     finally:

@@ -83,6 +83,29 @@ def read_repeats(paths) -> list[Repeat]:
     return out
 
 
+def logged_pressure_of(paths, pressure_kpa: float | None = None) -> float | None:
+    """The pressure (kPa) the coupled recordings log, in their sidecars or as `pressure_kpa` for
+    all: one value shared by every recording, or None when none logs one.  Repeats of one
+    experiment share a pressure: a one-line error names a recording at another, or without one
+    beside recordings with one."""
+    from roboball.diagnose.data import POOL_PRESSURE_TOL_KPA
+    from roboball.ingest.importers import read_any
+    first = None
+    for k, path in enumerate(paths):
+        p = read_any(path, kind="steer_coupled", pressure_kpa=pressure_kpa).pressure_kpa
+        if k == 0:
+            first = (path, p)
+        elif (p is None) != (first[1] is None) or (p is not None and abs(p - first[1]) > POOL_PRESSURE_TOL_KPA):
+            raise RoboballError(f"{path}: pressure {p} kPa, not {first[1]} kPa as {first[0]}: repeats of one "
+                                "coupled test share their pressure")
+    return first[1] if first else None
+
+
+def logged_pressure(reps, p_kpa: float) -> "PressureFit":
+    """The logged pressure as the repeats' `PressureFit`: every fold at it, nothing fitted."""
+    return PressureFit(float(p_kpa), (float(p_kpa), float(p_kpa)), (), [], {r.name: float(p_kpa) for r in reps})
+
+
 def run(spec, rep: Repeat, built=None) -> dict:
     """The model `spec` released from the repeat's first sample with its release rates, at its
     sample times."""

@@ -1,8 +1,8 @@
 """`roboball diagnose --kind steer_coupled`: the coupled test's diagnosis, written to the contract.
 
 The baseline (diagnosis.md, steer_coupled) is the calibrated model: the stand-fitted steer
-friction (a friction fit JSON with its delta_i) and the injected shell at the pressure fitted on
-the data; the effects are chosen per degree of freedom (roboball.diagnose.coupled_effects).
+friction (a friction fit JSON with its delta_i) and the injected shell at the recordings' logged
+pressure, else at the pressure fitted on the data; the effects are chosen per degree of freedom (roboball.diagnose.coupled_effects).
 The model reported (`missing_physics`, `fit.rmse_*`) is fitted on all the recordings given (one
 recording: on its first two thirds); held-out numbers are the folds' (leave one repeat out, or
 the last third of a single recording).  Writes diagnosis.json, report.md, predictions.csv and
@@ -20,7 +20,7 @@ import pandas as pd
 from roboball.atomic import output_folder, write_csv_atomic, write_json_atomic, write_text_atomic
 from roboball.errors import RoboballError
 from roboball.physics import effects as fx
-from roboball.diagnose.coupled import COORDS, fit_pressure, read_repeats
+from roboball.diagnose.coupled import COORDS, fit_pressure, logged_pressure, read_repeats
 from roboball.diagnose.coupled_effects import (baseline_spec, effect_spec, fit_chosen, folds_of, held_out, key,
                                                predict_all, rms_by_coord, screen, truncated)
 from roboball.diagnose.scored import Settings
@@ -113,12 +113,16 @@ def read_inputs(paths, regression, friction_steer) -> tuple:
     return read_repeats(paths), ShellLaws.from_regression_csv(regression), read_stand_friction(friction_steer)
 
 
-def diagnose_coupled(reps, laws, friction, out_dir, log=None) -> dict:
+def diagnose_coupled(reps, laws, friction, out_dir, log=None, pressure_kpa: float | None = None) -> dict:
     """Diagnose the coupled recordings `reps` against the injected baseline of the shell `laws`
-    and the steer `friction` (as `read_inputs` gives them); returns the diagnosis.json content."""
+    and the steer `friction` (as `read_inputs` gives them) at their logged `pressure_kpa`, or at
+    the pressure fitted on them when it was not logged; returns the diagnosis.json content."""
     folds = folds_of(reps)
     train = folds[0].train if len(reps) == 1 else {r.name: np.ones(len(r.t), bool) for r in reps}
-    pressure = fit_pressure([truncated(r, train[r.name]) for r in reps], laws, friction)
+    logged = pressure_kpa is not None
+    pressure = (logged_pressure(reps, pressure_kpa) if logged
+                else fit_pressure([truncated(r, train[r.name]) for r in reps], laws, friction))
+    how = "logged" if logged else "fitted"
     base = baseline_spec(pressure.p_kpa, laws, friction)
     chosen, table = screen(base, reps, train, log=log)
     chosen, fit, dropped = fit_chosen(base, chosen, reps, train)
@@ -136,8 +140,10 @@ def diagnose_coupled(reps, laws, friction, out_dir, log=None) -> dict:
     js = {
         "kind": "steer_coupled",
         "baseline": {"description": "stand-fitted Majd steer friction with its rotor inertia, injected shell "
-                                    "(eq. 6-9) at the fitted pressure, pendulum free, drive held, flat ground",
-                     "fitted": {"pressure_kpa": pressure.p_kpa, "pressure_ci95_kpa": list(pressure.ci95_kpa)},
+                                    f"(eq. 6-9) at the {how} pressure, pendulum free, drive held, flat ground",
+                     "fitted": ({} if logged else {"pressure_kpa": pressure.p_kpa,
+                                                   "pressure_ci95_kpa": list(pressure.ci95_kpa)}),
+                     **({"pressure_kpa": pressure.p_kpa} if logged else {}),
                      "friction_steer": friction},
         "verdict": verdict(fit, pred_base, reps, train, noise),
         "located": located(pred_base, reps, train),
@@ -160,7 +166,7 @@ def diagnose_coupled(reps, laws, friction, out_dir, log=None) -> dict:
     write_csv_atomic(_predictions(reps, pred_base, pred_aug), out / "predictions.csv")
     named = ", ".join(key(*c) for c in chosen) or "nothing added"
     _overlay(reps, pred_base, pred_aug, out / "overlay.png",
-             f"steer_coupled diagnosis at the fitted {pressure.p_kpa:.1f} kPa: augmented = baseline + {named}, "
+             f"steer_coupled diagnosis at the {how} {pressure.p_kpa:.1f} kPa: augmented = baseline + {named}, "
              + ("fitted on the first two thirds" if len(reps) == 1 else
                 f"fitted on all {len(reps)} repeats (held-out figures: each repeat left out in turn)"),
              cut_s=float(reps[0].t[train[reps[0].name]][-1]) if len(reps) == 1 else None)
@@ -208,9 +214,11 @@ def _overlay(reps, base, aug, path, title: str, cut_s: float | None = None) -> N
 
 def report_md(js: dict) -> str:
     pc = js["fit"]["per_coordinate"]
-    lines = [f"# Diagnosis: steer_coupled ({js['verdict']})", "", js["baseline"]["description"] + ".",
-             f"Fitted pressure {js['baseline']['fitted']['pressure_kpa']:.1f} kPa "
-             f"(95 % {js['baseline']['fitted']['pressure_ci95_kpa'][0]:.1f}-{js['baseline']['fitted']['pressure_ci95_kpa'][1]:.1f}).",
+    fitted = js["baseline"]["fitted"]
+    pressure = (f"Logged pressure {js['baseline']['pressure_kpa']:.1f} kPa (not fitted)." if "pressure_kpa" not in fitted
+                else f"Fitted pressure {fitted['pressure_kpa']:.1f} kPa "
+                     f"(95 % {fitted['pressure_ci95_kpa'][0]:.1f}-{fitted['pressure_ci95_kpa'][1]:.1f}).")
+    lines = [f"# Diagnosis: steer_coupled ({js['verdict']})", "", js["baseline"]["description"] + ".", pressure,
              "", "| coordinate | RMS before (rad) | after | held out before | held out after |", "|---|---|---|---|---|"]
     for c in COORDS:
         lines.append(f"| {c} | {pc['before'][c]:.4f} | {pc['after'][c]:.4f} | {pc['heldout_before'][c]:.4f} | "

@@ -90,13 +90,6 @@ def models_for(laws, models, logged: bool = False) -> tuple:
     return tuple(m for m in models if logged or not laws.pressure_free or not m.needs_pressure or m.name == "injected")
 
 
-def logged_pressure(reps, p_kpa: float):
-    """The pressure the recordings' sidecars (or manifest) log, shared by the repeats: every
-    model runs at it; nothing is fitted."""
-    from roboball.diagnose.coupled import PressureFit
-    return PressureFit(float(p_kpa), (float(p_kpa), float(p_kpa)), (), [], {r.name: float(p_kpa) for r in reps})
-
-
 def unfitted_pressure(reps):
     """The pressure of pressure-free laws: not fitted (every value gives the same shell); the
     models run at 0 kPa, which the laws ignore, and the table and summary say 'not fitted'."""
@@ -201,7 +194,7 @@ def steer_coupled(recordings: list, regression: str, friction_steer: str, out_js
     neither it nor the authors' objective is fitted (the authors refitted their pair because the
     real repeats' pressure was not logged; at a logged one the calibrated shell is the pipeline's
     own answer)."""
-    from roboball.diagnose.coupled import fit_authors_objective, fit_pressure, read_repeats
+    from roboball.diagnose.coupled import fit_authors_objective, fit_pressure, logged_pressure, read_repeats
     from roboball.diagnose.coupled_effects import held_out
     from roboball.figures.coupled import plot
     from roboball.identify.friction.fitted import read_stand_friction
