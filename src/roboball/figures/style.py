@@ -32,20 +32,32 @@ def save(fig, path: str | Path) -> None:
     plt.close(fig)
 
 
+def _unit(sig: str) -> str:
+    return "rad/s" if sig.endswith("_rad_s") else "rad"
+
+
 def qc_plot(rec, releases, path) -> None:
-    """Whole recording with each release marked (hand phase shaded, release instant, free response)."""
+    """Whole recording with each release marked (hand phase shaded, release instant, free
+    response).  The main signal, and beside it every other signal of its unit (a coupled test's
+    steer angle with its pipe angle); a trimmed log's release has no hold, and none is shaded."""
     sig = rec.main_signal()
-    unit = "rad/s" if sig.endswith("_rad_s") else "rad"
+    unit = _unit(sig)
+    shown = [sig] + [s for s in rec.signals if s != sig and _unit(s) == unit]
     fig, ax = plt.subplots(figsize=(9, 3.2))
-    ax.plot(rec.time, rec.signal(sig), lw=0.8, color="k", label=sig)
-    for i, r in enumerate(releases):
+    colours = ("k", "tab:green", "tab:brown", "tab:olive")     # not the spans' orange, blue, red, purple
+    for k, s in enumerate(shown):
+        ax.plot(rec.time, rec.signal(s), lw=0.8, color=colours[k % len(colours)], label=s)
+    held = [r for r in releases if r.t_release_s > r.held_from_s]
+    for i, r in enumerate(held):
         ax.axvspan(r.held_from_s, r.t_release_s, color="orange", alpha=0.25, label="hand hold" if i == 0 else None)
+    for i, r in enumerate(releases):
         ax.axvspan(r.t_release_s, r.t_end_s, color="tab:blue", alpha=0.08, label="free response" if i == 0 else None)
         ax.axvline(r.t_release_s, color="tab:red", lw=1, label="release" if i == 0 else None)
     if rec.meta.get("ramp_exit_s"):
         ax.axvline(rec.meta["ramp_exit_s"], color="tab:purple", ls="--", label="leaves ramp")
     ax.set_xlabel("time (s)")
-    ax.set_ylabel(f"{sig.rsplit('_', 1)[0] if unit == 'rad' else sig[:-6]} ({unit})")
+    name = sig.rsplit("_", 1)[0] if unit == "rad" else sig[:-6]
+    ax.set_ylabel(f"{name if len(shown) == 1 else 'angle' if unit == 'rad' else 'rate'} ({unit})")
     p = rec.pressure_kpa
     ax.set_title(f"QC: {Path(str(rec.path)).stem} ({rec.kind}{'' if p is None else f', {p:g} kPa'}): "
                  f"{len(releases)} release(s)")
