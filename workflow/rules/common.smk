@@ -4,7 +4,6 @@
 # define rules only.
 import json
 import os
-import shlex
 import sys
 from pathlib import Path
 

@@ -88,14 +88,14 @@ def logged_pressure_of(paths, pressure_kpa: float | None = None) -> float | None
     all: one value shared by every recording, or None when none logs one.  Repeats of one
     experiment share a pressure: a one-line error names a recording at another, or without one
     beside recordings with one."""
-    from roboball.diagnose.data import POOL_PRESSURE_TOL_KPA
+    from roboball.diagnose.data import same_pressure
     from roboball.ingest.importers import read_any
     first = None
     for k, path in enumerate(paths):
         p = read_any(path, kind="steer_coupled", pressure_kpa=pressure_kpa).pressure_kpa
         if k == 0:
             first = (path, p)
-        elif (p is None) != (first[1] is None) or (p is not None and abs(p - first[1]) > POOL_PRESSURE_TOL_KPA):
+        elif not same_pressure(p, first[1]):
             raise RoboballError(f"{path}: pressure {p} kPa, not {first[1]} kPa as {first[0]}: repeats of one "
                                 "coupled test share their pressure")
     return first[1] if first else None

@@ -354,6 +354,12 @@ def prepare(rec: Recording) -> Prepared:
 POOL_PRESSURE_TOL_KPA = 0.05
 
 
+def same_pressure(pa: float | None, pb: float | None) -> bool:
+    """Whether two recordings' pressures (kPa, None: not logged) are one experiment's: both
+    unlogged, or both logged within POOL_PRESSURE_TOL_KPA."""
+    return (pa is None) == (pb is None) and (pa is None or abs(pa - pb) <= POOL_PRESSURE_TOL_KPA)
+
+
 def pool(preps: list) -> Prepared:
     """Several recordings of one experiment diagnosed together: every release of every recording
     is a release of the pooled fit (its own release state), so held-out validation leaves one
@@ -372,7 +378,7 @@ def pool(preps: list) -> Prepared:
         if p.kind != first.kind or p.signal != first.signal:
             raise RoboballError(f"{where}: kind {p.kind} ({p.signal}), not {first.kind} ({first.signal})")
         pa, pb = p.recording.pressure_kpa, first.recording.pressure_kpa
-        if (pa is None) != (pb is None) or (pa is not None and abs(pa - pb) > POOL_PRESSURE_TOL_KPA):
+        if not same_pressure(pa, pb):
             raise RoboballError(f"{where}: pressure {pa} kPa, not {pb} kPa")
         if first.kind == "ramp" and abs((p.recording.ramp_angle_deg or 0.0) - (first.recording.ramp_angle_deg or 0.0)) > 1e-6:
             raise RoboballError(f"{where}: ramp angle {p.recording.ramp_angle_deg} deg, not "

@@ -226,7 +226,7 @@ def steer_coupled(recordings: list, regression: str, friction_steer: str, out_js
         "left_out": left_out,
     }
     plot(traces, table, out_png, campaign=campaign, pressure_free=laws.pressure_free and not logged,
-         left_out=summary["left_out"], logged_kpa=pressure_kpa if logged else None)
+         left_out=left_out, logged_kpa=pressure_kpa if logged else None)
     write_csv_atomic(table, table_csv)
     write_text_atomic(table_md, table_markdown(table, summary))
     write_csv_atomic(traces, out_csv)

@@ -250,6 +250,7 @@ def plan_lines(camp: Campaign, friction: dict) -> list:
                        "model is scored there on the run its diagnosis was fitted on (in sample, marked in Figs. 13, 14)")
     else:
         say(False, "Figs. 13, 14 (ramp descents, PME)", "no ramp recording")
+    groups = camp.coupled_groups()
     sets, skipped = camp.coupled_plan(friction)
     for name, (d, stems, p) in sets.items():
         at = "pressure not logged" if p is None else f"at {p:g} kPa"
@@ -257,7 +258,7 @@ def plan_lines(camp: Campaign, friction: dict) -> list:
             + ("" if reg else ": shell laws held at its shell releases' zeta and omega_n (no regression)"
                + ("" if p is not None else "; the models that need the pressure are left out")), "")
     for name, why in skipped:
-        d, stems, p = camp.coupled_groups()[name]
+        d, stems, p = groups[name]
         say(False, f"Fig. S2 (coupled steer test of '{camp.name(d)}', "
             + ("pressure not logged)" if p is None else f"at {p:g} kPa)"), why)
     if not camp.stems("steer_coupled"):
