@@ -74,12 +74,18 @@ def run_models(reps, laws, friction, pressure, authors_fit, diagnosed, extra=(),
     for fold in diagnosed:
         r = by_name[fold["fold"]]
         pred = run(fold["spec"], r)
-        rows.append(_rows("diagnosed", r, pred, True, None if laws.pressure_free and not logged else fold["pressure_kpa"]))
+        rows.append(_rows("diagnosed", r, pred, True, None if pressure_unknown(laws, logged) else fold["pressure_kpa"]))
         traces.append(_trace("diagnosed", r, pred))
     table = pd.DataFrame(rows)
-    if laws.pressure_free and not logged:      # the pressure was neither logged nor fitted: no row has one
+    if pressure_unknown(laws, logged):      # no row has a pressure
         table["pressure_kpa"] = np.nan
     return table, pd.concat(traces, ignore_index=True)
+
+
+def pressure_unknown(laws, logged: bool) -> bool:
+    """Whether the repeats' pressure is neither logged nor fittable: their shell laws are
+    pressure-free (shell releases at one pressure) and no pressure was logged."""
+    return laws.pressure_free and not logged
 
 
 def models_for(laws, models, logged: bool = False) -> tuple:
@@ -87,7 +93,7 @@ def models_for(laws, models, logged: bool = False) -> tuple:
     repeats' pressure not logged (so not fittable either), the injected shell (its zeta and
     omega_n are the laws' constants) and the models that need no pressure.  At a logged pressure
     every model runs: eq. 10's modulus needs only the pressure."""
-    return tuple(m for m in models if logged or not laws.pressure_free or not m.needs_pressure or m.name == "injected")
+    return tuple(m for m in models if not pressure_unknown(laws, logged) or not m.needs_pressure or m.name == "injected")
 
 
 def unfitted_pressure(reps):
@@ -176,7 +182,7 @@ def calibrated_shell(hydro_fit: str, reps, pressure, laws, logged: bool = False)
     tuned = tuned_range(hydro_fit)
     used = [pressure.folds.get(r.name, pressure.p_kpa) for r in reps]
     outside = sorted({round(float(p), 1) for p in used
-                      if (logged or not laws.pressure_free) and not in_tuned_range(p, tuned)})
+                      if not pressure_unknown(laws, logged) and not in_tuned_range(p, tuned)})
     if outside:
         how, verb = ("logged pressure", "lies") if logged else ("fitted pressures", "lie")
         return (), {"hydro_tuned": f"the repeats' {how} {', '.join(f'{p:g}' for p in outside)} kPa {verb} "
@@ -225,7 +231,7 @@ def steer_coupled(recordings: list, regression: str, friction_steer: str, out_js
         "friction_steer": friction,
         "left_out": left_out,
     }
-    plot(traces, table, out_png, campaign=campaign, pressure_free=laws.pressure_free and not logged,
+    plot(traces, table, out_png, campaign=campaign, pressure_free=pressure_unknown(laws, logged),
          left_out=left_out, logged_kpa=pressure_kpa if logged else None)
     write_csv_atomic(table, table_csv)
     write_text_atomic(table_md, table_markdown(table, summary))
@@ -234,7 +240,8 @@ def steer_coupled(recordings: list, regression: str, friction_steer: str, out_js
     write_json_atomic(out_json, summary)
     said = (f"authors' loss theirs {authors['theirs_loss_rad2']:.5f}, ours {authors['ours_loss_rad2']:.5f}; "
             if authors else "")
-    print(f"steer_coupled: pressure {summary['pressure']['p_kpa']} kPa ({summary['pressure']['model']}); {said}"
+    p_kpa, how = summary["pressure"]["p_kpa"], summary["pressure"]["model"]
+    print(f"steer_coupled: pressure {how if p_kpa is None else f'{p_kpa:.1f} kPa ({how})'}; {said}"
           f"diagnosed beats the paper models on {summary['diagnosed_beats_paper_models']}; {summary['wall_s']:.1f} s")
 
 
