@@ -148,6 +148,24 @@ DEFLATE_SCHEDULE = DEFLATE.get("schedule", {})
 COUPLED_SETS = CAMPAIGN.coupled_plan(config["friction"])[0]
 COUPLED = [s for _, stems_, _ in COUPLED_SETS.values() for s in stems_]
 PF = config.get("figures_dir", "paper_figures")
+
+
+def pressure_label(p):
+    """A pressure as the Snakemake report's label: zero-padded ("06.9"), because the report sorts
+    labels as text, which would put 20.7 before 6.9."""
+    try:
+        p = float(p)
+    except (TypeError, ValueError):         # "" (a stand: no shell) or "unknown" (a real log's)
+        return "-"
+    return "-" if p != p else f"{p:04.1f}"
+
+
+def coupled_label(dataset, p):
+    """A set of coupled repeats in the report: its campaign and pressure, padded as
+    `pressure_label` pads it so that the report lists 6.9 kPa before 10.3 kPa."""
+    return f"{CAMPAIGN.name(dataset)}, " + ("pressure not logged" if p is None else f"{pressure_label(p)} kPa")
+
+
 # The paper tables the Snakemake report shows (rule table_page), by file stem.
 # Numbered: the report sorts its labels as text.
 TABLE_NAMES = {}
@@ -160,8 +178,7 @@ if REGRESSION:
     TABLE_NAMES["table_sweep"] = "4. Hydroelastic sweep"
 for _name, (_d, _, _p) in COUPLED_SETS.items():
     TABLE_NAMES[f"table_coupled_rms_{_name}"] = (
-        f"5. Coupled steer test (Fig. S2), {CAMPAIGN.name(_d)}, "
-        + ("pressure not logged" if _p is None else f"{_p:g} kPa") + ": RMS by model")
+        f"5. Coupled steer test (Fig. S2), {coupled_label(_d, _p)}: RMS by model")
 
 
 ##### file names #####
@@ -241,16 +258,6 @@ def final_targets():
 
 
 ##### report labels #####
-
-def pressure_label(p):
-    """A pressure as the Snakemake report's label: zero-padded ("06.9"), because the report sorts
-    labels as text, which would put 20.7 before 6.9."""
-    try:
-        p = float(p)
-    except (TypeError, ValueError):         # "" (a stand: no shell) or "unknown" (a real log's)
-        return "-"
-    return "-" if p != p else f"{p:04.1f}"
-
 
 def qc_labels(wildcards):
     """The QC plot's labels: kind, pressure (kPa), recording, in the report's sort order."""

@@ -179,7 +179,8 @@ if COUPLED_SETS:
             hydro_fit=[HYDRO_TUNED] if SHELL_GROUPS else [],
         output:
             png=[report(coupled_outputs(n)["png"], category="6 Beyond the paper", caption="../report/figS2.rst",
-                        labels={"figure": f"Fig. S2: coupled steer test, {n}"}) for n in COUPLED_SETS],
+                        labels={"figure": f"Fig. S2: coupled steer test, {coupled_label(d, p)}"})
+                 for n, (d, _, p) in COUPLED_SETS.items()],
             pdf=[coupled_outputs(n)["pdf"] for n in COUPLED_SETS],
             table_csv=[coupled_outputs(n)["table_csv"] for n in COUPLED_SETS],
             table_md=[coupled_outputs(n)["table_md"] for n in COUPLED_SETS],
