@@ -133,7 +133,8 @@ RAMP_FRICTION = CAMPAIGN.ramp_friction(config["friction"])
 RAMP_GROUPS = CAMPAIGN.ramp_groups()
 RAMP_POOLED = {f"results/diagnose/pressure/{g}": CAMPAIGN.runs_at(g) for g in RAMP_GROUPS}
 RAMP_DIAGNOSES = {**RAMP_POOLED, **{f"results/diagnose/heldout/{s}": CAMPAIGN.other_runs(s) for s in RAMP}}
-# what `roboball diagnose` writes in its out dir
+# what `roboball diagnose` writes in its out dir (roboball.diagnose.report.OUTPUT_FILES, held equal by
+# tests/pipeline/test_workflow_outputs.py: importing the package here would slow every DAG build)
 DIAGNOSIS_FILES = ("diagnosis.json", "predictions.csv", "report.md", "details.json", "overlay.png", "regimes.png",
                    "windows.png")
 
