@@ -41,3 +41,40 @@ def test_a_lagged_sensor_or_a_numpy_loop_simulates_every_start_to_the_end(stand_
     eng.sensor = {}
     eng.model.compiled = False
     assert not fit.bounded_grid(eng)
+
+
+def test_the_stretches_add_up_to_each_start_s_whole_cost(stand_log, monkeypatch):
+    """Run every start through every stretch (nothing pruned): the costs the stretches accumulate
+    are the whole runs' costs, so each stretch reads every sample once (a stretch reads only the
+    columns its steps can reach)."""
+    import numpy as np
+    from roboball.diagnose import bounded
+
+    sel = Selector(prepare(read(stand_log)))
+    engine = sel.engine
+    start = engine.initial_values()
+    trials = [(sel.full_problem((e,), start), e, [start, dict(start, viscous_c=0.3)])
+              for e in ("coulomb_friction", "linear_stiffness")]
+    seen = {}
+    monkeypatch.setattr(fit, "best_costs", lambda eng, items, spans: seen.update(items=items, spans=spans)
+                        or bounded.best_costs(eng, items, spans))
+    engine.best_starts(trials)
+    items, spans = seen["items"], seen["spans"]
+    owner = np.empty(len(items), dtype=np.int64)
+    g = 0
+    for s0, cands, used, _ in spans:
+        for i in range(len(cands) * len(used)):
+            owner[s0 + i] = g + i // len(used)
+        g += len(cands)
+    partial = np.zeros(g)
+    masks = bounded._item_masks(items, spans)
+    runs = [bounded._Run(engine, items, rows, owner, masks) for rows in bounded._by_window(items)]
+    n = 0
+    while any(r.left for r in runs):
+        for r in runs:
+            r.stretch(partial, np.ones(g, bool))
+        n += 1
+    assert n > 4
+    outs = engine.predict(items)
+    whole = np.concatenate([engine._costs(outs, s0, len(c), u, p) for s0, c, u, p in spans])
+    np.testing.assert_allclose(partial, whole, rtol=1e-9)

@@ -127,6 +127,9 @@ class _Run:
         x = np.clip(tau / self.dt, 0.0, n_total - 1e-9)
         self.cell = np.floor(x).astype(int)
         self.s = x - self.cell
+        # a row's cells grow with the sample's time, so a stretch's samples lie in the columns
+        # between these two bounds (all rows'; a row dropped later only narrows what is inside)
+        self.col_max, self.col_min = self.cell.max(axis=0), self.cell.min(axis=0)
         self.mask = np.array([masks[r] for r in rows])
         self.stepper = engine.model.stepper(q0, P, self.dt)
         self.done, self.n_total = 0, n_total
@@ -149,8 +152,13 @@ class _Run:
         n = min(int(round(STRETCH_S / self.dt)), self.n_total - self.done)
         Y, Yd = self.stepper.advance(n)
         lo, hi = self.done, self.done + n          # steps lo .. hi: cells lo .. hi - 1
-        inside = (self.cell >= lo) & (self.cell < hi) & self.mask
-        r, c = np.nonzero(inside)
+        # only the columns a row's cells can be inside (the same samples, in the same order, as
+        # the whole matrix gives: a stretch is a sixteenth of an 8 s window)
+        a = int(np.searchsorted(self.col_max, lo, side="left"))
+        b = max(a, int(np.searchsorted(self.col_min, hi, side="left")))
+        cell = self.cell[:, a:b]
+        r, c = np.nonzero((cell >= lo) & (cell < hi) & self.mask[:, a:b])
+        c += a
         i = self.cell[r, c] - lo
         s = self.s[r, c]
         dt = self.dt
