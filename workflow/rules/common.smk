@@ -151,37 +151,6 @@ COUPLED = [s for _, stems_, _ in COUPLED_SETS.values() for s in stems_]
 PF = config.get("figures_dir", "paper_figures")
 
 
-def pressure_label(p):
-    """A pressure as the Snakemake report's label: zero-padded ("06.9"), because the report sorts
-    labels as text, which would put 20.7 before 6.9."""
-    try:
-        p = float(p)
-    except (TypeError, ValueError):         # "" (a stand: no shell) or "unknown" (a real log's)
-        return "-"
-    return "-" if p != p else f"{p:04.1f}"
-
-
-def coupled_label(dataset, p):
-    """A set of coupled repeats in the report: its campaign and pressure, padded as
-    `pressure_label` pads it so that the report lists 6.9 kPa before 10.3 kPa."""
-    return f"{CAMPAIGN.name(dataset)}, " + ("pressure not logged" if p is None else f"{pressure_label(p)} kPa")
-
-
-# The paper tables the Snakemake report shows (rule table_page), by file stem.
-# Numbered: the report sorts its labels as text.
-TABLE_NAMES = {}
-if FITS:
-    TABLE_NAMES["table1_friction"] = "1. Table I: joint friction"
-TABLE_NAMES["table2_robot"] = "2. Table II: the robot's numbers"
-if RAMP:
-    TABLE_NAMES["table_pme"] = "3. PME (eq. 12) by contact model and pressure"
-if REGRESSION:
-    TABLE_NAMES["table_sweep"] = "4. Hydroelastic sweep"
-for _name, (_d, _, _p) in COUPLED_SETS.items():
-    TABLE_NAMES[f"table_coupled_rms_{_name}"] = (
-        f"5. Coupled steer test (Fig. S2), {coupled_label(_d, _p)}: RMS by model")
-
-
 ##### file names #####
 
 def fit_json(dataset, joint, law):
@@ -259,6 +228,37 @@ def final_targets():
 
 
 ##### report labels #####
+
+def pressure_label(p):
+    """A pressure as the Snakemake report's label: zero-padded ("06.9"), because the report sorts
+    labels as text, which would put 20.7 before 6.9."""
+    try:
+        p = float(p)
+    except (TypeError, ValueError):         # "" (a stand: no shell) or "unknown" (a real log's)
+        return "-"
+    return "-" if p != p else f"{p:04.1f}"
+
+
+def coupled_label(dataset, p):
+    """A set of coupled repeats in the report: its campaign and pressure, padded as
+    `pressure_label` pads it so that the report lists 6.9 kPa before 10.3 kPa."""
+    return f"{CAMPAIGN.name(dataset)}, " + ("pressure not logged" if p is None else f"{pressure_label(p)} kPa")
+
+
+# The paper tables the Snakemake report shows (rule table_page), by file stem.
+# Numbered: the report sorts its labels as text.
+TABLE_NAMES = {}
+if FITS:
+    TABLE_NAMES["table1_friction"] = "1. Table I: joint friction"
+TABLE_NAMES["table2_robot"] = "2. Table II: the robot's numbers"
+if RAMP:
+    TABLE_NAMES["table_pme"] = "3. PME (eq. 12) by contact model and pressure"
+if REGRESSION:
+    TABLE_NAMES["table_sweep"] = "4. Hydroelastic sweep"
+for _name, (_d, _, _p) in COUPLED_SETS.items():
+    TABLE_NAMES[f"table_coupled_rms_{_name}"] = (
+        f"5. Coupled steer test (Fig. S2), {coupled_label(_d, _p)}: RMS by model")
+
 
 def qc_labels(wildcards):
     """The QC plot's labels: kind, pressure (kPa), recording, in the report's sort order."""
