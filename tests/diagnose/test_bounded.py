@@ -60,12 +60,8 @@ def test_the_stretches_add_up_to_each_start_s_whole_cost(stand_log, monkeypatch)
                         or bounded.best_costs(eng, items, spans))
     engine.best_starts(trials)
     items, spans = seen["items"], seen["spans"]
-    owner = np.empty(len(items), dtype=np.int64)
-    g = 0
-    for s0, cands, used, _ in spans:
-        for i in range(len(cands) * len(used)):
-            owner[s0 + i] = g + i // len(used)
-        g += len(cands)
+    owner, _ = bounded._owners(items, spans)
+    g = sum(len(c) for _, c, _, _ in spans)
     partial = np.zeros(g)
     masks = bounded._item_masks(items, spans)
     runs = [bounded._Run(engine, items, rows, owner, masks) for rows in bounded._by_window(items)]

@@ -43,14 +43,8 @@ def best_costs(engine, items: list, spans: list) -> list:
     """For each span (start, candidates, windows used, problem) of `items` (values, window), the
     candidates' costs: the exact cost (Engine._costs) of those that could be the best, inf for
     those dropped."""
-    owner = np.empty(len(items), dtype=np.int64)        # item -> global candidate
-    first = []                                          # span -> its first global candidate
-    g = 0
-    for start, cands, used, _ in spans:
-        first.append(g)
-        for i in range(len(cands) * len(used)):
-            owner[start + i] = g + i // len(used)
-        g += len(cands)
+    owner, first = _owners(items, spans)
+    g = sum(len(s[1]) for s in spans)
     partial = np.zeros(g)
     alive = np.ones(g, bool)
     exact = np.full(g, np.nan)
@@ -72,6 +66,20 @@ def best_costs(engine, items: list, spans: list) -> list:
     _exact(engine, items, spans, first, todo, exact)
     return [np.where(np.isnan(exact[first[k]:first[k] + len(s[1])]), math.inf, exact[first[k]:first[k] + len(s[1])])
             for k, s in enumerate(spans)]
+
+
+def _owners(items, spans) -> tuple:
+    """(item -> its global candidate, span -> its first global candidate): the spans' candidates
+    numbered one after another, each item (a candidate in one window) owned by its candidate."""
+    owner = np.empty(len(items), dtype=np.int64)
+    first = []
+    g = 0
+    for start, cands, used, _ in spans:
+        first.append(g)
+        for i in range(len(cands) * len(used)):
+            owner[start + i] = g + i // len(used)
+        g += len(cands)
+    return owner, first
 
 
 def _by_window(items) -> list:
