@@ -37,11 +37,11 @@ def phases(trace: Path, split_s: float) -> dict:
     t = d["time_s"].to_numpy()
     w_e = d["drive_rate_measured_rad_s"].to_numpy()
     w_s = d["drive_rate_sim_rad_s"].to_numpy()
-    scored = np.abs(w_e) >= SPEED_FLOOR_RAD_S          # eq. 12's samples (relative_errors' rule)
-    rel = 100.0 * relative_errors(w_e, w_s, SPEED_FLOOR_RAD_S)
-    early = t[scored] < split_s
-    return {"all": rel.mean(), "early": rel[early].mean() if early.any() else np.nan,
-            "late": rel[~early].mean() if (~early).any() else np.nan, "early_share": early.mean()}
+    early = t < split_s
+    rel = {k: 100.0 * relative_errors(w_e[m], w_s[m], SPEED_FLOOR_RAD_S)      # eq. 12's samples of each
+           for k, m in (("all", np.ones_like(early)), ("early", early), ("late", ~early))}
+    return {**{k: r.mean() if r.size else np.nan for k, r in rel.items()},
+            "early_share": rel["early"].size / rel["all"].size}
 
 
 def main() -> None:
