@@ -47,21 +47,22 @@ def _jitter(problem, lsq, j, dt, n=61):
 
 
 def test_a_quiet_stand_log_gets_a_step_that_neither_biases_nor_roughens_the_posterior(quiet_segments):
-    """Coulomb + viscous on the campaign's quiet steer stand.  The implicit stiction step decides
-    per step whether the joint sticks, so the log-likelihood jumps where a parameter moves a stick
-    across a step: measured along mu_d, c, delta_i and rest_offset its jitter about a quadratic is
-    1.0-1.7 at 0.625 ms (then the smallest step, whose error shifted a parameter by 0.52 sd, over
-    the 0.2 allowed) and 0.23-0.64 at the 0.156 ms now chosen (0.08 sd).  At 0.625 ms the chain
-    ran at acceptance 0.14 and did not converge in 6000 steps; now it converges in 1200-1400."""
+    """Coulomb + viscous on the campaign's quiet steer stand.  Eq. 2's torque jumps at the
+    stiction band's edges; stepped across, the log-likelihood jittered by 1.0-1.7 about a
+    quadratic (along mu_d, c, delta_i and rest_offset) at 0.625 ms and 0.23-0.64 at 0.156 ms, the
+    step it then needed, where the chain converged in 1200-1400 steps at acceptance 0.2.  With
+    the edges located (roboball.reduced.kernel) the jitter is 0.003-0.03 at every candidate step,
+    so the step is set by its bias alone: 1.25 ms (0.11 sd), where the chain converges in 1000
+    steps at acceptance 0.42."""
     problem = _problem(quiet_segments)
     lsq = least_squares_fit(problem, seed=0)
     dt, info = choose_dt(problem, lsq)
-    assert dt < 6.25e-4 and info["max_shift_sd"] <= DT_TOLERANCE, info
+    assert dt >= 1.25e-3 and info["max_shift_sd"] <= DT_TOLERANCE, info
     jitter = {problem.names[j]: _jitter(problem, lsq, j, dt) for j in range(1, 5)}
-    assert max(jitter.values()) < 1.0, jitter
+    assert max(jitter.values()) < 0.1, jitter
 
 
-@pytest.mark.slow       # the pipeline's chain on the quiet log (about 75 s alone)
+@pytest.mark.slow       # the pipeline's chain on the quiet log (about 20 s alone)
 def test_the_campaigns_quiet_coulomb_viscous_chain_converges(quiet_segments, tmp_path):
     """With the pipeline's settings and seed the chain converges inside the step cap and carries
     no integration-bias note (before the two smaller steps: 3000 steps, 33 autocorrelation

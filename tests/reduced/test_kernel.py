@@ -92,8 +92,13 @@ def test_the_compiled_law_is_the_physics_function(law):
     row = np.array([p[k] for k in friction.PARAMS[law]], dtype=float)
     v = np.concatenate([np.linspace(-3.0, 3.0, 601), [0.0, 1e-9, -1e-9]])
     ref = friction.torque(law, v, p)
-    got = np.array([K._friction(code, x, row) for x in v])
+    got = np.array([K._friction(code, x, row, 0.0) for x in v])
     assert np.max(np.abs(got - ref)) < 1e-12
+    if law == "coulomb_viscous":            # each branch continued past the band's edges
+        for side in (friction.BAND, 1.0, -1.0):
+            ref = friction.coulomb_viscous(v, p["mu_s"], p["mu_d"], p["c"], p["v_tol"], side=side)
+            got = np.array([K._friction(code, x, row, side) for x in v])
+            assert np.max(np.abs(got - ref)) < 1e-12
 
 
 def test_runs_the_compiled_loop_cannot_take_stay_on_numpy():

@@ -66,11 +66,25 @@ def viscous(v, c, m=NP):
     return -c * v
 
 
-def coulomb_viscous(v, mu_s, mu_d, c, v_tol=0.01, m=NP):
-    """Coulomb + viscous friction, eq. 2 (regularised stiction band |v| < v_tol)."""
-    inside = -mu_s * v / v_tol
-    outside = -mu_d * m.sign(v) - c * v
-    return m.where(m.abs(v) < v_tol, inside, outside)
+# `side` of coulomb_viscous: the stiction band's line (the sliding lines are +1 and -1)
+BAND = 2.0
+
+
+def coulomb_viscous(v, mu_s, mu_d, c, v_tol=0.01, m=NP, side=None):
+    """Coulomb + viscous friction, eq. 2 (regularised stiction band |v| < v_tol).
+
+    The torque jumps at the band's edges (mu_s against mu_d + c v_tol), and a fixed-step
+    integrator that steps across a jump makes the solution jitter with the parameters.  `side`
+    continues one branch past the edge, so that an integrator can locate the edge and step each
+    side on its own smooth branch (roboball.reduced.kernel): BAND, the band's line at any speed;
+    +1 or -1, the sliding line of that direction at any speed.  None: the law (the branch of v)."""
+    if side is None:
+        inside = m.abs(v) < v_tol
+        direction = m.sign(v)
+    else:
+        inside = side == BAND
+        direction = side
+    return m.where(inside, -mu_s * v / v_tol, -mu_d * direction - c * v)
 
 
 def majd(v, f_w, f_c, sigma, omega_c, n, m=NP):

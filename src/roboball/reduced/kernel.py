@@ -7,6 +7,8 @@ half an hour.
 Here each batch row runs the identical algorithm in machine code (rows in parallel threads):
 
 * RK4 in its Nystroem form, the same stage formulas and operation order as ``rk4_stiction``;
+* under Coulomb + viscous friction outside the stiff regime, the same cuts at the stiction
+  band's edges (``_edge_step``, ``integrate._edge_steps``);
 * the backward-Euler stiction step with the bracketed, safeguarded Newton iteration of
   ``integrate.implicit_step`` (the same ``NEWTON_MAX_IT``), taken on the same steps (stiff
   band, zero crossings that stick);
@@ -33,12 +35,13 @@ from numba import prange
 
 from roboball.physics import friction
 from roboball.physics.mathns import scalar
-from roboball.reduced.integrate import NEWTON_MAX_IT
+from roboball.reduced.integrate import EDGE_EVENTS_MAX, NEWTON_MAX_IT
 from roboball.reduced.jitcache import cached_jit
 
 __all__ = ["supports", "integrate_rows"]
 
 M = scalar()
+BAND = friction.BAND
 
 # the laws of the compiled loop, each with its parameters in ``friction.PARAMS[law]`` order
 LAW_CODES = {"viscous": 0, "coulomb_viscous": 1, "majd": 2}
@@ -53,20 +56,23 @@ def supports(law: str, extra_torque, record_work: bool) -> bool:
 
 
 @cached_jit(inline="always")
-def _friction(law, v, p):
-    """The torque of law `law` (LAW_CODES) with parameters p at joint rate v."""
+def _friction(law, v, p, side):
+    """The torque of law `law` (LAW_CODES) with parameters p at joint rate v; `side` != 0 holds
+    Coulomb + viscous friction on one branch (friction.coulomb_viscous)."""
     if law == 0:
         return _viscous(v, p[0], M)
     if law == 1:
-        return _coulomb_viscous(v, p[0], p[1], p[2], p[3], M)
+        if side == 0.0:
+            return _coulomb_viscous(v, p[0], p[1], p[2], p[3], M)
+        return _coulomb_viscous(v, p[0], p[1], p[2], p[3], M, side)
     return _majd(v, p[0], p[1], p[2], p[3], p[4], M)
 
 
 @cached_jit(inline="always")
-def _accel(law, q, v, p, gG, beta, const_m, inv_m0, M0, RG):
+def _accel(law, side, q, v, p, gG, beta, const_m, inv_m0, M0, RG):
     """The acceleration of one RK4 stage (inlined into the loop)."""
     s = math.sin(q + beta)
-    tau = _friction(law, v, p)
+    tau = _friction(law, v, p, side)
     if const_m:
         return (tau - gG * s) * inv_m0
     mm = M0 - 2.0 * RG * math.cos(q + beta)
@@ -85,7 +91,7 @@ def _implicit(law, q, v, p, h, slope0, gG, beta, M0, RG):
     alpha = 1.0 - h * hm * kq
     c = v + hm * tau_o
     w_free = c / alpha
-    f_free = _friction(law, w_free, p)
+    f_free = _friction(law, w_free, p, 0.0)
     w_slip = (c + hm * f_free) / alpha
     sgn = 1.0 if c > 0.0 else (-1.0 if c < 0.0 else 0.0)
     lo = min(0.0, w_free)
@@ -98,7 +104,7 @@ def _implicit(law, q, v, p, h, slope0, gG, beta, M0, RG):
     else:
         w = w_stick
     scale = abs(c) + 1e-300
-    f = _friction(law, w, p)
+    f = _friction(law, w, p, 0.0)
     for _ in range(NEWTON_MAX_IT):      # the NumPy loop's cap, frozen into the kernel
         r = alpha * w - c - hm * f
         if abs(r) <= 1e-11 * scale + 1e-14:
@@ -108,20 +114,68 @@ def _implicit(law, q, v, p, h, slope0, gG, beta, M0, RG):
         if r < 0:
             lo = max(lo, w)
         dw = max(1e-7 * abs(w), 1e-13)
-        dfdw = (_friction(law, w + dw, p) - f) / dw
+        dfdw = (_friction(law, w + dw, p, 0.0) - f) / dw
         rp = alpha - hm * dfdw
         w_n = w - r / (rp if rp > 0.05 * alpha else alpha)
         if not (w_n > lo and w_n < hi):
             w_n = 0.5 * (lo + hi)
         w = w_n
-        f = _friction(law, w, p)
+        f = _friction(law, w, p, 0.0)
     return q + h * w, w
+
+
+@cached_jit(inline="always")
+def _rk4(law, side, q, v, h, p, gG, beta, const_m, inv_m0, M0, RG):
+    """One RK4 (Nystroem) step of length h: (q1, v1)."""
+    h2 = h * h
+    a1 = _accel(law, side, q, v, p, gG, beta, const_m, inv_m0, M0, RG)
+    qh = q + (0.5 * h) * v
+    v2 = v + (0.5 * h) * a1
+    a2 = _accel(law, side, qh, v2, p, gG, beta, const_m, inv_m0, M0, RG)
+    v3 = v + (0.5 * h) * a2
+    a3 = _accel(law, side, qh + (0.25 * h2) * a1, v3, p, gG, beta, const_m, inv_m0, M0, RG)
+    qf = q + h * v
+    v4 = v + h * a3
+    a4 = _accel(law, side, qf + (0.5 * h2) * a2, v4, p, gG, beta, const_m, inv_m0, M0, RG)
+    return qf + (h2 / 6.0) * (a1 + a2 + a3), v + (h / 6.0) * (a1 + 2.0 * (a2 + a3) + a4)
+
+
+@cached_jit(inline="always")
+def _side(v, v_tol):
+    """The branch of Coulomb + viscous friction that rate v is on (friction.coulomb_viscous)."""
+    if abs(v) < v_tol:
+        return BAND
+    return 1.0 if v > 0.0 else -1.0
+
+
+@cached_jit()
+def _edge_step(q, v, h, p, gG, beta, const_m, inv_m0, M0, RG):
+    """One step of length h under Coulomb + viscous friction with the band's edges located
+    (integrate.EDGE_EVENTS_MAX, as in the NumPy loop): (q1, v1, edges crossed)."""
+    v_tol = p[3]
+    side = _side(v, v_tol)
+    rest = h
+    for k in range(EDGE_EVENTS_MAX):
+        q1, v1 = _rk4(1, side, q, v, rest, p, gG, beta, const_m, inv_m0, M0, RG)
+        side1 = _side(v1, v_tol)
+        if side1 == side:
+            return q1, v1, k
+        edge = (v_tol if v1 > 0.0 else -v_tol) if side == BAND else side * v_tol
+        frac = min(max((edge - v) / (v1 - v), 0.0), 1.0)
+        hs = frac * rest
+        q, v = _rk4(1, side, q, v, hs, p, gG, beta, const_m, inv_m0, M0, RG)
+        side = (1.0 if edge > 0.0 else -1.0) if side == BAND else BAND
+        rest -= hs
+        if rest <= 0.0:
+            return q, v, k + 1
+    q1, v1 = _rk4(1, side, q, v, rest, p, gG, beta, const_m, inv_m0, M0, RG)
+    return q1, v1, EDGE_EVENTS_MAX
 
 
 @cached_jit(parallel=True)
 def _run(law, P, q0, v0, band, slope0, h, nrow, gG, beta, const_m, M0s, RG, Q, V, n_impl):
-    """Every row's RK4 loop with the implicit step, rows in parallel."""
-    h2 = h * h
+    """Every row's RK4 loop with the implicit step (or, Coulomb + viscous friction on a row
+    outside the stiff regime, the band's edges located), rows in parallel."""
     for r in prange(q0.size):
         M0 = M0s[r]                 # the row's inertia (a calibrated stand adds to it)
         inv_m0 = 1.0 / M0
@@ -130,22 +184,16 @@ def _run(law, P, q0, v0, band, slope0, h, nrow, gG, beta, const_m, M0s, RG, Q, V
         v = v0[r]
         b = band[r]
         stiff = b > 0.0
+        edges = law == 1 and not stiff
         Q[r, 0] = q
         V[r, 0] = v
         k = 0
         n_r = nrow[r]
         for i in range(n_r):
-            a1 = _accel(law, q, v, p, gG, beta, const_m, inv_m0, M0, RG)
-            qh = q + (0.5 * h) * v
-            v2 = v + (0.5 * h) * a1
-            a2 = _accel(law, qh, v2, p, gG, beta, const_m, inv_m0, M0, RG)
-            v3 = v + (0.5 * h) * a2
-            a3 = _accel(law, qh + (0.25 * h2) * a1, v3, p, gG, beta, const_m, inv_m0, M0, RG)
-            qf = q + h * v
-            v4 = v + h * a3
-            a4 = _accel(law, qf + (0.5 * h2) * a2, v4, p, gG, beta, const_m, inv_m0, M0, RG)
-            q_new = qf + (h2 / 6.0) * (a1 + a2 + a3)
-            v_new = v + (h / 6.0) * (a1 + 2.0 * (a2 + a3) + a4)
+            if edges:
+                q_new, v_new, _ = _edge_step(q, v, h, p, gG, beta, const_m, inv_m0, M0, RG)
+            else:
+                q_new, v_new = _rk4(law, 0.0, q, v, h, p, gG, beta, const_m, inv_m0, M0, RG)
             if stiff:
                 in_band = abs(v) < b
                 if in_band or abs(v_new) < b or v * v_new < 0.0:

@@ -4,16 +4,14 @@ The largest of 5, 2.5, 1.25, 0.625, 0.3125 and 0.15625 ms whose integration erro
 against half the step) shifts no fitted parameter by more than 0.2 of its standard deviation: a
 per-sample criterion is not enough, a systematic error adds up over thousands of samples.
 
-The two smallest steps are for quiet logs.  The implicit stiction step decides at each step
-whether the joint sticks, so the likelihood jumps where a parameter moves a stick from one step
-to the next: on the twin's steer-stand log (0.8 mrad noise) with Coulomb + viscous friction the
-log-likelihood jitters by 1.0-1.7 (sd about a quadratic over +-2 Laplace sd of mu_d, c, delta_i,
-rest_offset; tests/identify/test_timestep.py) at 0.625 ms, 0.4-0.9 at 0.3125 ms and 0.23-0.64
-at 0.15625 ms.  At 0.625 ms (then the smallest step, failing the tolerance: 0.52 sd) the chain
-mixed at acceptance 0.14-0.16 and did not converge in 6000 steps (tau 176); at 0.15625 ms
-(0.08 sd) it converged at 1200 steps (tau 7, acceptance 0.32).  The sampler's adaptation phase
-runs no finer than 0.625 ms (:func:`adaptation_dt`): 1250-1400 steps (tau 8-11) in 42-55 s
-alone, against 55 s for the 3000 capped steps before.
+The two smallest steps are for quiet logs.  The likelihood is smooth at every step: eq. 2's
+torque jumps at the stiction band's edges, and the integrator cuts a step at an edge and steps
+each side on its own branch (roboball.reduced.kernel).  Stepped across instead, the jump made the
+log-likelihood jitter with the parameters: on the twin's steer-stand log (0.8 mrad noise) by
+1.0-1.7 about a quadratic at 0.625 ms and 0.23-0.64 at 0.15625 ms, the step it then needed for a
+chain that mixed (1200-1400 steps at acceptance 0.2, 42-92 s).  With the edges located: 0.003-0.03
+at every step (tests/identify/test_timestep.py), the step chosen for its bias alone, 1.25 ms
+(0.11 sd), and the chain converges in 1000 steps at acceptance 0.42, in 20 s.
 
 Not 10 ms: the step is judged at the optimum only, and at 10 ms the regularised stiction band
 of eq. 2 (|v| < v_tol = 0.01 rad/s, slope mu_s / v_tol) is stepped over.  On the real steer log
@@ -36,10 +34,9 @@ ADAPT_DT_MIN = 6.25e-4        # the sampler's adaptation phase runs no finer tha
 def adaptation_dt(dt: float) -> float:
     """The RK4 step of the sampler's adaptation phase for a fit at step `dt`: `dt` itself down to
     0.625 ms, 0.625 ms below it.  The adaptation's samples only shape the sampler's proposal
-    (production runs at `dt`), and at 0.625 ms they land where the posterior lies (on the twin's
-    quiet stand log the medians within 0.2 sd of the 0.156 ms chain's).  The quiet log's chain
-    then converges at 1250-1400 steps in 42-55 s alone, against 1200 steps in 74-77 s at 0.156 ms
-    throughout."""
+    (production runs at `dt`); on the twin's quiet stand log, when its Coulomb + viscous fit still
+    ran at 0.156 ms, the adaptation's medians at 0.625 ms lay within 0.2 sd of the fine chain's
+    and the chain took 42-55 s instead of 74-77 s."""
     return max(float(dt), ADAPT_DT_MIN)
 
 
