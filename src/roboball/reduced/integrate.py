@@ -30,12 +30,12 @@ and :func:`roboball.reduced.planar.step_error`), the candidates compare as follo
   quantisation of the stand logs, at half the cost of 1 ms RK2/RK4 steps.
 
 Coulomb + viscous friction (eq. 2) jumps at its stiction band's edges |q'| = v_tol.  Outside the
-stiff regime below, its steps are cut where the rate crosses an edge (placed on the rate's
-cubic Hermite interpolant over the trial step, :func:`crossing_fraction`) and each part is an
-RK4 step on its side's own smooth branch (:func:`_edge_steps`;
-``friction.coulomb_viscous(side=...)``): the error against Radau falls from 2.3e-4 to 1.4e-8
-rad at 2.5 ms on a 1.2 rad Table I swing, and the trajectory moves smoothly with the
-parameters, which the friction posterior's sampler needs (``tests/reduced/test_planar.py``).
+stiff regime below, its steps are cut where the rate crosses an edge (placed by linear
+interpolation of the rate over the trial step) and each part is an RK4 step on its side's own
+smooth branch (:func:`_edge_steps`; ``friction.coulomb_viscous(side=...)``): the error against
+Radau falls from 2.3e-4 to 7.1e-6 rad at 2.5 ms on a 1.2 rad Table I swing, and the trajectory
+moves smoothly with the parameters, which the friction posterior's sampler needs
+(``tests/reduced/test_planar.py``).
 
 RK4 alone fails on stiff stiction (a continuous law whose slope at zero speed is huge, as
 Majd's law becomes for small omega_c): once the body stops, RK4 chatters across zero speed
@@ -69,9 +69,8 @@ import numpy as np
 
 from roboball.errors import RoboballError
 from roboball.physics import friction
-from roboball.physics.mathns import NP
 
-__all__ = ["NEWTON_MAX_IT", "PlanarEquation", "Trajectory", "friction_function", "stiff_band", "crossing_fraction",
+__all__ = ["NEWTON_MAX_IT", "PlanarEquation", "Trajectory", "friction_function", "stiff_band",
            "rk4_stiction", "implicit_step", "sample", "sample_rows", "midpoint", "hermite"]
 
 NEWTON_MAX_IT = 40          # iteration cap of the implicit step (the compiled loop freezes the same)
@@ -186,30 +185,10 @@ def _side(v, v_tol):
     return np.where(np.abs(v) < v_tol, friction.BAND, np.where(v > 0.0, 1.0, -1.0))
 
 
-def crossing_fraction(v0, v1, a0, a1, h, edge, m=NP):
-    """Where the rate crosses `edge` in a step of length h from (v0, a0) to (v1, a1), as a
-    fraction of the step: the linear guess refined by three Newton steps on the rate's cubic
-    Hermite interpolant, so that the crossing is placed to the step's own order (linear alone
-    erred by 7e-6 rad at 2.5 ms on a Table I swing, this by 1.4e-8).  Plain arithmetic: the NumPy
-    loop calls it on arrays, the compiled loop on floats (m = mathns.scalar())."""
-    frac = m.minimum(m.maximum((edge - v0) / (v1 - v0), 0.0), 1.0)
-    b0 = h * a0
-    b1 = h * a1
-    for _ in range(3):
-        t2 = frac * frac
-        t3 = t2 * frac
-        f = (2.0 * t3 - 3.0 * t2 + 1.0) * v0 + (t3 - 2.0 * t2 + frac) * b0 + (3.0 * t2 - 2.0 * t3) * v1 \
-            + (t3 - t2) * b1 - edge
-        df = (6.0 * t2 - 6.0 * frac) * (v0 - v1) + (3.0 * t2 - 4.0 * frac + 1.0) * b0 + (3.0 * t2 - 2.0 * frac) * b1
-        moving = df != 0.0
-        frac = m.minimum(m.maximum(frac - m.where(moving, f / m.where(moving, df, 1.0), 0.0), 0.0), 1.0)
-    return frac
-
-
 def _edge_steps(accel_on, q, v, h, v_tol, record_work):
     """One step of length h of every row under Coulomb + viscous friction with the band's edges
-    located: a step that would cross an edge (where the torque jumps) is cut at the crossing
-    (:func:`crossing_fraction`), and each part is an RK4 step on its side's own
+    located: a step that would cross an edge (where the torque jumps) is cut at the crossing,
+    placed by linear interpolation of the rate, and each part is an RK4 step on its side's own
     smooth branch (`accel_on(side)`), so the trajectory moves smoothly with the parameters.  The
     compiled loop's ``_edge_step`` is the same algorithm.  Returns (q1, v1, work increment or None)."""
     side = _side(v, v_tol)
@@ -218,8 +197,7 @@ def _edge_steps(accel_on, q, v, h, v_tol, record_work):
     work = np.zeros_like(q) if record_work else None
     active = np.ones(q.shape, dtype=bool)
     for _ in range(EDGE_EVENTS_MAX):
-        on_side = accel_on(side)
-        qt, vt, pw = _rk4_step(on_side, q, v, rest, rest * rest, record_work)
+        qt, vt, pw = _rk4_step(accel_on(side), q, v, rest, rest * rest, record_work)
         cross = active & (_side(vt, v_tol) != side)
         done = active & ~cross
         q1[done], v1[done] = qt[done], vt[done]
@@ -229,9 +207,9 @@ def _edge_steps(accel_on, q, v, h, v_tol, record_work):
             return q1, v1, work
         edge = np.where(side == friction.BAND, np.where(vt > 0.0, v_tol, -v_tol), side * v_tol)
         with np.errstate(divide="ignore", invalid="ignore"):
-            frac = crossing_fraction(v, vt, on_side(q, v)[0], on_side(qt, vt)[0], rest, edge)
+            frac = np.minimum(np.maximum((edge - v) / (vt - v), 0.0), 1.0)
         hs = np.where(cross, frac * rest, 0.0)
-        qs, vs, ps = _rk4_step(on_side, q, v, hs, hs * hs, record_work)
+        qs, vs, ps = _rk4_step(accel_on(side), q, v, hs, hs * hs, record_work)
         q, v = np.where(cross, qs, q), np.where(cross, vs, v)
         if record_work:
             work += np.where(cross, (hs / 6.0) * ps, 0.0)

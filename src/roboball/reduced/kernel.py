@@ -35,7 +35,7 @@ from numba import prange
 
 from roboball.physics import friction
 from roboball.physics.mathns import scalar
-from roboball.reduced.integrate import EDGE_EVENTS_MAX, NEWTON_MAX_IT, crossing_fraction
+from roboball.reduced.integrate import EDGE_EVENTS_MAX, NEWTON_MAX_IT
 from roboball.reduced.jitcache import cached_jit
 
 __all__ = ["supports", "integrate_rows"]
@@ -48,7 +48,6 @@ LAW_CODES = {"viscous": 0, "coulomb_viscous": 1, "majd": 2}
 _viscous = cached_jit()(friction.viscous)
 _coulomb_viscous = cached_jit()(friction.coulomb_viscous)
 _majd = cached_jit()(friction.majd)
-_crossing = cached_jit(inline="always")(crossing_fraction)
 
 
 def supports(law: str, extra_torque, record_work: bool) -> bool:
@@ -162,8 +161,7 @@ def _edge_step(q, v, h, p, gG, beta, const_m, inv_m0, M0, RG):
         if side1 == side:
             return q1, v1, k
         edge = (v_tol if v1 > 0.0 else -v_tol) if side == BAND else side * v_tol
-        frac = _crossing(v, v1, _accel(1, side, q, v, p, gG, beta, const_m, inv_m0, M0, RG),
-                         _accel(1, side, q1, v1, p, gG, beta, const_m, inv_m0, M0, RG), rest, edge, M)
+        frac = min(max((edge - v) / (v1 - v), 0.0), 1.0)
         hs = frac * rest
         q, v = _rk4(1, side, q, v, hs, p, gG, beta, const_m, inv_m0, M0, RG)
         side = (1.0 if edge > 0.0 else -1.0) if side == BAND else BAND

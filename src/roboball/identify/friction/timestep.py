@@ -9,9 +9,9 @@ torque jumps at the stiction band's edges, and the integrator cuts a step at an 
 each side on its own branch (roboball.reduced.kernel).  Stepped across instead, the jump made the
 log-likelihood jitter with the parameters: on the twin's steer-stand log (0.8 mrad noise) by
 1.0-1.7 about a quadratic at 0.625 ms and 0.23-0.64 at 0.15625 ms, the step it then needed for a
-chain that mixed (1200-1400 steps at acceptance 0.2, 42-92 s).  With the edges located: 0.02 or
-less at every step (tests/identify/test_timestep.py), the step chosen for its bias alone, 2.5 ms
-(0.03 sd), and the chain converges in 1000 steps at acceptance 0.43, in 11 s.
+chain that mixed (1200-1400 steps at acceptance 0.2, 42-92 s).  With the edges located: 0.003-0.03
+at every step (tests/identify/test_timestep.py), the step chosen for its bias alone, 1.25 ms
+(0.11 sd), and the chain converges in 1000 steps at acceptance 0.42, in 20 s.
 
 Not 10 ms: the step is judged at the optimum only, and at 10 ms the regularised stiction band
 of eq. 2 (|v| < v_tol = 0.01 rad/s, slope mu_s / v_tol) is stepped over.  On the real steer log
