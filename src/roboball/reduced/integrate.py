@@ -275,6 +275,7 @@ def rk4_stiction(model: PlanarEquation, law: str, params: Mapping, ffun, q, v, n
 
         def accel_on(side):
             return _acceleration(model, friction_function(law, params, side), extra_torque, params, m0)
+    all_edges = edge_rows is not None and edge_rows.all()
     Q = np.empty((n + 1, B))
     V = np.empty((n + 1, B))
     W = np.zeros((n + 1, B)) if record_work else None
@@ -283,14 +284,15 @@ def rk4_stiction(model: PlanarEquation, law: str, params: Mapping, ffun, q, v, n
     stiff_rows = band > 0 if band is not None and np.any(band > 0) else None
     n_impl = 0
     for i in range(n):
-        q_new, v_new, power = _rk4_step(accel, q, v, h, h2, record_work)
-        if record_work:
-            work_new = work + (h / 6.0) * power
+        if not all_edges:                     # the plain step, for the rows not on edge steps
+            q_new, v_new, power = _rk4_step(accel, q, v, h, h2, record_work)
+            if record_work:
+                work_new = work + (h / 6.0) * power
         if edge_rows is not None:
             qe, ve, we = _edge_steps(accel_on, q, v, h, v_tol, record_work)
-            q_new, v_new = np.where(edge_rows, qe, q_new), np.where(edge_rows, ve, v_new)
+            q_new, v_new = (qe, ve) if all_edges else (np.where(edge_rows, qe, q_new), np.where(edge_rows, ve, v_new))
             if record_work:
-                work_new = np.where(edge_rows, work + we, work_new)
+                work_new = work + we if all_edges else np.where(edge_rows, work + we, work_new)
         if stiff_rows is not None:
             fixed = _stiction_rows(model, law, params, extra_torque, q, v, q_new, v_new, h, band, slope0, stiff_rows, m0)
             if fixed is not None:

@@ -151,15 +151,15 @@ def _side(v, v_tol):
 @cached_jit()
 def _edge_step(q, v, h, p, gG, beta, const_m, inv_m0, M0, RG):
     """One step of length h under Coulomb + viscous friction with the band's edges located
-    (integrate.EDGE_EVENTS_MAX, as in the NumPy loop): (q1, v1, edges crossed)."""
+    (at most integrate.EDGE_EVENTS_MAX, as in the NumPy loop): (q1, v1)."""
     v_tol = p[3]
     side = _side(v, v_tol)
     rest = h
-    for k in range(EDGE_EVENTS_MAX):
+    for _ in range(EDGE_EVENTS_MAX):
         q1, v1 = _rk4(1, side, q, v, rest, p, gG, beta, const_m, inv_m0, M0, RG)
         side1 = _side(v1, v_tol)
         if side1 == side:
-            return q1, v1, k
+            return q1, v1
         edge = (v_tol if v1 > 0.0 else -v_tol) if side == BAND else side * v_tol
         frac = min(max((edge - v) / (v1 - v), 0.0), 1.0)
         hs = frac * rest
@@ -167,9 +167,8 @@ def _edge_step(q, v, h, p, gG, beta, const_m, inv_m0, M0, RG):
         side = (1.0 if edge > 0.0 else -1.0) if side == BAND else BAND
         rest -= hs
         if rest <= 0.0:
-            return q, v, k + 1
-    q1, v1 = _rk4(1, side, q, v, rest, p, gG, beta, const_m, inv_m0, M0, RG)
-    return q1, v1, EDGE_EVENTS_MAX
+            return q, v
+    return _rk4(1, side, q, v, rest, p, gG, beta, const_m, inv_m0, M0, RG)
 
 
 @cached_jit(parallel=True)
@@ -191,7 +190,7 @@ def _run(law, P, q0, v0, band, slope0, h, nrow, gG, beta, const_m, M0s, RG, Q, V
         n_r = nrow[r]
         for i in range(n_r):
             if edges:
-                q_new, v_new, _ = _edge_step(q, v, h, p, gG, beta, const_m, inv_m0, M0, RG)
+                q_new, v_new = _edge_step(q, v, h, p, gG, beta, const_m, inv_m0, M0, RG)
             else:
                 q_new, v_new = _rk4(law, 0.0, q, v, h, p, gG, beta, const_m, inv_m0, M0, RG)
             if stiff:
