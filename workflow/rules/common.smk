@@ -13,6 +13,7 @@ from roboball.checks import check_config_dir
 from roboball.config import first_nonfinite, load_yaml
 from roboball.errors import RoboballError
 from roboball.pipeline.codedeps import stage_fingerprints
+from roboball.pipeline import warm
 from roboball.pipeline.allocator import job_preload
 from roboball.pipeline.bytecode import compile_package
 from roboball.pipeline.numerics import job_environment
@@ -49,8 +50,11 @@ except RoboballError as exc:
 
 ##### how a rule runs a stage #####
 
-# The roboball of the environment running Snakemake (the project's .venv).
-ROBOBALL = os.path.join(os.path.dirname(sys.executable), "roboball") + " stage"
+# The roboball of the environment running Snakemake (the project's .venv), started warm: a job
+# is forked from a process that has imported the stages' numeric stack, not started afresh
+# (roboball.pipeline.warm; the server runs in local runs only, else and with ROBOBALL_WARM=0 each
+# job starts a fresh process).
+ROBOBALL = f"{sys.executable} -m roboball.pipeline.warm stage"
 
 # Every job runs with mimalloc preloaded: the Drake jobs are 8-17% cheaper, no output changes
 # (roboball.pipeline.allocator; ROBOBALL_MALLOC=system to keep glibc's malloc).
@@ -67,6 +71,18 @@ os.environ.update(job_environment(os.environ))
 # cost the ramp diagnoses 11% more CPU for the same bytes (rows are independent).  friction_fit
 # sets its own from its `threads`.
 os.environ["NUMBA_NUM_THREADS"] = "1"
+
+# The warm server starts with the jobs' environment (set above), after the DAG is built and only
+# when jobs will run here; it ends with the run.
+onstart:
+    if workflow.local_exec:
+        warm.start(os.environ)
+
+onsuccess:
+    warm.stop(os.environ)
+
+onerror:
+    warm.stop(os.environ)
 
 # Each rule's params carry CODE[stage]: a hash of the package source files the stage runs and,
 # when it reads them, of the robot facts (roboball.pipeline.codedeps).  Editing a friction law
