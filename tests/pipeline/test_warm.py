@@ -6,6 +6,7 @@ import os
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -40,6 +41,7 @@ def _wait_ready(path: str, timeout: float = 60.0) -> None:
 @pytest.fixture
 def server():
     env_before = dict(os.environ)
+    os.environ.update({k: "1" for k in warm.SNAKEMAKE_THREAD_VARS})      # as Snakemake gives a job
     path = warm.start(os.environ)
     assert path and os.environ[warm.ENV_SOCKET] == path
     try:
@@ -48,6 +50,27 @@ def server():
         warm.stop(os.environ)
         os.environ.clear()
         os.environ.update(env_before)
+
+
+def test_the_workflows_jobs_start_warm(tmp_path):
+    """Through Snakemake: its jobs' environment (its thread variables, the pinned numerics) is the
+    server's, so a job runs warm; its log ends with the job's own CPU time and memory."""
+    from test_partial_campaigns import SNAKEMAKE, partial
+
+    raw = partial(tmp_path / "c", drop=("ramp", "steer_coupled", "steer_stand", "drive_stand"), pressures=(13.8,))
+    stems = sorted(p.stem for p in raw.glob("shell_rock/*.csv"))[:2]
+    work = tmp_path / "w"
+    work.mkdir()
+    env = {k: v for k, v in os.environ.items() if k != warm.ENV_SOCKET}
+    folders = set(Path(tempfile.gettempdir()).glob("roboball-warm-*"))
+    r = subprocess.run([SNAKEMAKE, "-s", str(REPO / "Snakefile"), *[f"results/ingest/{s}.releases.json" for s in stems],
+                        "--cores", "2", "--config", f"campaign_dir={raw}", "figures_dir=figures"],
+                       cwd=work, env=env, capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr[-3000:]
+    for stem in stems:
+        last = (work / "results" / "logs" / "ingest" / f"{stem}.log").read_text().strip().splitlines()[-1]
+        assert last.startswith("roboball: warm start: the job used"), last
+    assert set(Path(tempfile.gettempdir()).glob("roboball-warm-*")) <= folders     # the server's folder is gone
 
 
 def test_a_warm_job_writes_the_bytes_and_status_of_a_fresh_process(server, tmp_path):
@@ -60,6 +83,12 @@ def test_a_warm_job_writes_the_bytes_and_status_of_a_fresh_process(server, tmp_p
     for name in ("r.csv", "r.releases.json", "r.png", "r.pdf"):
         assert (cold / name).read_bytes() == (hot / name).read_bytes(), name
     assert r_hot.stdout == r_cold.stdout
+    # the job's own CPU time and memory close its log (Snakemake's benchmark file sees the client)
+    assert r_hot.stderr.startswith(r_cold.stderr)
+    extra = r_hot.stderr[len(r_cold.stderr):].strip()
+    assert extra.startswith("roboball: warm start: the job used") and len(extra.splitlines()) == 1
+    cpu = float(extra.split("used ")[1].split(" s of CPU")[0])
+    assert 0.05 < cpu < 30.0, extra
     started = [line for line in _log(server) if "roboball stage ingest" in line]
     assert len(started) == 1, _log(server)            # the warm one ran in the server, the cold one did not
     pid = started[0].split()[1].rstrip(":")
@@ -95,11 +124,7 @@ def test_a_job_whose_client_dies_is_interrupted_and_writes_nothing(server, tmp_p
     out = tmp_path / "diagnosis"
     client = subprocess.Popen(CLIENT + ["diagnose", str(RECORDING), "--out", str(out)],
                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    for _ in range(100):
-        if any("roboball diagnose" in line for line in _log(server)):
-            break
-        time.sleep(0.1)
-    pid = int(next(line for line in _log(server) if "roboball diagnose" in line).split()[1].rstrip(":"))
+    pid = _job_pid(server, "roboball diagnose")
     time.sleep(1.0)
     client.send_signal(signal.SIGTERM)
     client.wait(timeout=10)
@@ -110,16 +135,43 @@ def test_a_job_whose_client_dies_is_interrupted_and_writes_nothing(server, tmp_p
     assert not out.exists() or not any(out.iterdir())
 
 
+def test_a_killed_server_takes_its_jobs_with_it(server, tmp_path):
+    """As a SIGKILL of Snakemake's process group kills the jobs in it (the kill-and-resume test):
+    no orphaned job may write into the rerun's results."""
+    _wait_ready(server)
+    client = subprocess.Popen(CLIENT + ["diagnose", str(RECORDING), "--out", str(tmp_path / "d")],
+                              stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    pid = _job_pid(server, "roboball diagnose")
+    warm._server[0].kill()
+    t0 = time.monotonic()
+    while _running(pid):
+        assert time.monotonic() - t0 < 5.0, f"job {pid} outlived its server"
+        time.sleep(0.05)
+    assert client.wait(timeout=10) == 1
+    assert "the warm job server stopped during `roboball diagnose" in client.stderr.read()
+
+
+def _job_pid(server: str, what: str) -> int:
+    for _ in range(100):
+        lines = [line for line in _log(server) if what in line]
+        if lines:
+            return int(lines[0].split()[1].rstrip(":"))
+        time.sleep(0.1)
+    raise AssertionError(f"no job '{what}' started: {_log(server)}")
+
+
 STARTER = """
 import os, sys, resource, subprocess
 from roboball.pipeline import warm
+os.environ.update({k: "1" for k in warm.SNAKEMAKE_THREAD_VARS})
 warm.start(os.environ)
 print(warm._server[0].pid, flush=True)
 runs = int(sys.argv[2])
 for _ in range(max(runs, 1)):       # --help when no job: a request the server answers after its preload
     args = sys.argv[3:] if runs else ["--help"]
-    r = subprocess.run([sys.executable, "-m", "roboball.pipeline.warm", *args], capture_output=True)
+    r = subprocess.run([sys.executable, "-m", "roboball.pipeline.warm", *args], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
+    assert not runs or "warm start" in r.stderr, r.stderr
 if sys.argv[1] == "leave":
     os._exit(0)          # no stop(): the server must notice its starter is gone
 warm.stop(os.environ)

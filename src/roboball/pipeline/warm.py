@@ -40,9 +40,13 @@ PRELOAD = ("numpy", "pandas", "scipy.optimize", "scipy.stats", "scipy.linalg", "
 # Variables read when a process starts or imports PRELOAD: a job that sets one differently runs cold.
 STARTUP_VARS = ("NPY_", "OPENBLAS_", "OMP_", "MKL_", "NUMBA_", "GLIBC_TUNABLES", "LD_PRELOAD",
                 "LD_LIBRARY_PATH", "MPL", "PYTHON")
+# Snakemake sets these to each job's `threads` (snakemake/shell.py); the server starts with the
+# value of the workflow's one-thread jobs, so those match it and a rule with more runs cold.
+SNAKEMAKE_THREAD_VARS = ("OMP_NUM_THREADS", "GOTO_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS",
+                         "VECLIB_MAXIMUM_THREADS", "NUMEXPR_NUM_THREADS")
 KILL_AFTER_S = 10.0
 _HEADER = struct.Struct("!I")
-_STATUS = struct.Struct("!i")
+_STATUS = struct.Struct("!iddq")    # exit status, CPU user and system (s), peak resident set (kB)
 _server = None      # (Popen, socket folder) of the server this process started
 
 
@@ -52,9 +56,10 @@ def startup_env(environ) -> dict:
 
 
 # ---- the workflow's side ----------------------------------------------------------------------
-def start(environ=os.environ) -> str | None:
-    """Launch the server with `environ` (the jobs' environment), set ENV_SOCKET in it and return
-    the socket's path; None (jobs start cold) with ROBOBALL_WARM=0 or off Linux."""
+def start(environ=os.environ, threads: int = 1) -> str | None:
+    """Launch the server with `environ` (the jobs' environment, with Snakemake's thread variables
+    at `threads`), set ENV_SOCKET in it and return the socket's path; None (jobs start cold) with
+    ROBOBALL_WARM=0 or off Linux."""
     global _server
     import atexit
     import subprocess
@@ -66,8 +71,9 @@ def start(environ=os.environ) -> str | None:
     folder = tempfile.mkdtemp(prefix="roboball-warm-")
     path = os.path.join(folder, "socket")
     log = open(os.path.join(folder, "server.log"), "wb")     # a line per job started and ended
+    env = {**environ, **{k: str(threads) for k in SNAKEMAKE_THREAD_VARS}}
     proc = subprocess.Popen([sys.executable, "-m", "roboball.pipeline.warm", "--serve", path, str(os.getpid())],
-                            env=dict(environ), stdin=subprocess.DEVNULL, stdout=log, stderr=log)
+                            env=env, stdin=subprocess.DEVNULL, stdout=log, stderr=log)
     log.close()
     _server = (proc, folder)
     atexit.register(stop)
@@ -139,7 +145,12 @@ def _ask(sock, argv) -> int | None:
     if len(status) != _STATUS.size:
         print(f"roboball: the warm job server stopped during `roboball {' '.join(argv[:2])}`", file=sys.stderr)
         return 1
-    return _STATUS.unpack(status)[0]
+    code, user, system, rss_kb = _STATUS.unpack(status)
+    # Snakemake's benchmark file measures this client; a finished job's own figures go to its log
+    if code == 0:
+            print(f"roboball: warm start: the job used {user + system:.2f} s of CPU ({user:.2f} user, {system:.2f} "
+              f"system) and at most {rss_kb / 1024 ** 2:.2f} GB", file=sys.stderr)
+    return code
 
 
 def _recv_exactly(sock, n: int) -> bytes:
@@ -202,12 +213,27 @@ def serve(path: str, parent: int) -> None:
             if job[2] is not None and _now() >= job[2]:
                 _signal_group(job[0], signal.SIGKILL)
     listener.close()
+    if os.getppid() != parent:       # nobody is left to remove the server's folder
+        import shutil
+        shutil.rmtree(os.path.dirname(path), ignore_errors=True)
     for job in jobs.values():
         _signal_group(job[0], signal.SIGINT)
     for fd in list(jobs):
         select.select([fd], [], [], KILL_AFTER_S)
         _signal_group(jobs[fd][0], signal.SIGKILL)
         _finish(fd, jobs, by_client)
+
+
+def _die_with(server: int) -> None:
+    """SIGKILL this process when the server dies (Linux's PR_SET_PDEATHSIG), as a killed process
+    group kills the jobs in it; a server that stops normally waits for its jobs first."""
+    import ctypes
+
+    libc = ctypes.CDLL(None, use_errno=True)
+    if libc.prctl(1, int(signal.SIGKILL), 0, 0, 0) != 0:       # 1: PR_SET_PDEATHSIG
+        raise OSError(ctypes.get_errno(), "prctl(PR_SET_PDEATHSIG) failed")
+    if os.getppid() != server:   # the server died before the call
+        os._exit(137)
 
 
 def _alive(conn) -> bool:
@@ -251,6 +277,7 @@ def _accept(listener, pipe: tuple, own: dict, jobs: dict, by_client: dict) -> No
         for fd in fds:
             os.close(fd)
         return
+    server = os.getpid()
     pid = os.fork()
     if pid == 0:
         # the listener, the other clients and their jobs' pidfds are the server's, not the job's
@@ -259,7 +286,7 @@ def _accept(listener, pipe: tuple, own: dict, jobs: dict, by_client: dict) -> No
             f.close()
         for fd in (*jobs, *pipe):
             os.close(fd)
-        _job(request, fds)          # never returns
+        _job(request, fds, server)  # never returns
     for fd in fds:
         os.close(fd)
     conn.settimeout(None)
@@ -272,18 +299,18 @@ def _accept(listener, pipe: tuple, own: dict, jobs: dict, by_client: dict) -> No
 def _finish(pidfd: int, jobs: dict, by_client: dict) -> None:
     pid, conn, _ = jobs.pop(pidfd)
     by_client.pop(conn, None)
-    _, status = os.waitpid(pid, 0)
+    _, status, usage = os.wait4(pid, 0)
     os.close(pidfd)
     code = os.WEXITSTATUS(status) if os.WIFEXITED(status) else 128 + os.WTERMSIG(status)
     print(f"job {pid}: exit {code}", flush=True)
     try:
-        conn.sendall(_STATUS.pack(code))
+        conn.sendall(_STATUS.pack(code, usage.ru_utime, usage.ru_stime, usage.ru_maxrss))
     except OSError:
         pass
     conn.close()
 
 
-def _job(request: dict, fds: list) -> None:
+def _job(request: dict, fds: list, server: int) -> None:
     """In the forked child: become the client's process and run its command; exit with its status."""
     import atexit
     import random
@@ -292,6 +319,7 @@ def _job(request: dict, fds: list) -> None:
     code = 1
     try:
         os.setpgid(0, 0)            # its own group: the server can stop it with whatever it started
+        _die_with(server)           # a job Snakemake started would die with a killed Snakemake's group
         for sig in (signal.SIGTERM, signal.SIGCHLD):
             signal.signal(sig, signal.SIG_DFL)
         signal.signal(signal.SIGINT, signal.default_int_handler)
