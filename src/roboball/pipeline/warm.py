@@ -33,13 +33,15 @@ import sys
 
 ENV_SOCKET = "ROBOBALL_WARM_SOCKET"
 ENV_SWITCH = "ROBOBALL_WARM"
-# What the server imports before it forks (each a job would import itself).
+# What the server imports before it forks: what the stages import from outside the package (not
+# scipy.signal: no stage does), the figures' PDF backend and the CLI.
 PRELOAD = ("numpy", "pandas", "scipy.optimize", "scipy.stats", "scipy.linalg", "scipy.interpolate",
-           "scipy.signal", "matplotlib", "matplotlib.pyplot", "pydrake.all", "numba", "emcee", "yaml",
-           "roboball.cli.main")
+           "scipy.ndimage", "scipy.special", "matplotlib", "matplotlib.pyplot", "matplotlib.backends.backend_agg",
+           "matplotlib.backends.backend_pdf", "pydrake.all", "numba", "emcee", "h5py", "corner", "jinja2",
+           "jsonschema", "yaml", "roboball.cli.main")
 # Variables read when a process starts or imports PRELOAD: a job that sets one differently runs cold.
 STARTUP_VARS = ("NPY_", "OPENBLAS_", "OMP_", "MKL_", "NUMBA_", "GLIBC_TUNABLES", "LD_PRELOAD",
-                "LD_LIBRARY_PATH", "MPL", "PYTHON")
+                "LD_LIBRARY_PATH", "MPL", "PYTHON", "LANG", "LC_", "TZ")
 # Snakemake sets these to each job's `threads` (snakemake/shell.py); the server starts with the
 # value of the workflow's one-thread jobs, so those match it and a rule with more runs cold.
 SNAKEMAKE_THREAD_VARS = ("OMP_NUM_THREADS", "GOTO_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS",
@@ -330,6 +332,8 @@ def _job(request: dict, fds: list, server: int) -> None:
         os.chdir(request["cwd"])
         os.environ.clear()
         os.environ.update(request["env"])
+        import tempfile
+        tempfile.tempdir = None     # the job's TMPDIR (Snakemake's tmpdir resource), not the server's
         # a fresh process's unseeded generators (none of the stages' results use them)
         random.seed()
         import numpy as np
