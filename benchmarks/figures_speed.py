@@ -66,6 +66,16 @@ def rule_seconds(log: Path) -> dict[str, tuple[int, float]]:
     return {r: (n, s) for r, (n, s) in out.items()}
 
 
+# `make figures` under a process of its own, which reports the largest resident set of the run's
+# processes: this script's own RUSAGE_CHILDREN keeps the largest of every run it made before.
+_RSS_WRAPPER = """
+import resource, subprocess, sys
+rc = subprocess.call(sys.argv[2:])
+open(sys.argv[1], "w").write(str(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss))
+sys.exit(rc)
+"""
+
+
 def run_once(parent: Path, rev: str, keep: bool) -> dict:
     clone = Path(tempfile.mkdtemp(prefix="figures_speed_", dir=parent))
     try:
@@ -73,10 +83,13 @@ def run_once(parent: Path, rev: str, keep: bool) -> dict:
         subprocess.run(["git", "checkout", "-q", rev], cwd=clone, check=True)
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
         t0, started = time.perf_counter(), time.time()
+        rss_file = clone / "make_figures.max_rss_kb"
         with open(clone / "make_figures.log", "w") as log:
-            rc = subprocess.run(["make", "figures"], cwd=clone, stdout=log, stderr=subprocess.STDOUT).returncode
+            rc = subprocess.run([sys.executable, "-c", _RSS_WRAPPER, str(rss_file), "make", "figures"], cwd=clone,
+                                stdout=log, stderr=subprocess.STDOUT).returncode
         wall = time.perf_counter() - t0
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        max_rss_kb = int(rss_file.read_text()) if rss_file.exists() else float("nan")
         stamp = clone / ".venv" / ".installed"
         venv = stamp.stat().st_mtime - started if stamp.exists() else float("nan")   # make venv's stamp
         changed = subprocess.run(["git", "status", "--porcelain", "--", "paper_figures"], cwd=clone,
@@ -85,7 +98,7 @@ def run_once(parent: Path, rev: str, keep: bool) -> dict:
         logs = sorted((clone / ".snakemake" / "log").glob("*.snakemake.log"), key=lambda p: p.stat().st_size)
         rules = rule_seconds(logs[-1]) if logs else {}
         return dict(rev=rev, rc=rc, wall_s=wall, venv_s=venv, user_s=after.ru_utime - before.ru_utime,
-                    sys_s=after.ru_stime - before.ru_stime, max_rss_gb=after.ru_maxrss / 1024 ** 2,
+                    sys_s=after.ru_stime - before.ru_stime, max_rss_gb=max_rss_kb / 1024 ** 2,
                     changed=changed, rules=rules, clone=clone)
     except BaseException:
         shutil.rmtree(clone, ignore_errors=True)
