@@ -1,4 +1,4 @@
-"""Warm job starts (roboball.pipeline.warm): a job forked from the server is the job a fresh
+"""Warm job starts (roboball.cli.warm): a job forked from the server is the job a fresh
 process would run (same bytes, same exit status, same one-line error), a job whose start-up
 environment differs runs in a fresh process, a job whose client dies is stopped, the server ends
 with the process that started it, and the jobs' CPU time counts to that process."""
@@ -13,12 +13,12 @@ from pathlib import Path
 import pytest
 
 from conftest import REPO
-from roboball.pipeline import warm
+from roboball.cli import warm
 
 pytestmark = pytest.mark.skipif(not hasattr(os, "pidfd_open"), reason="warm starts need Linux's pidfd_open")
 
 RECORDING = REPO / "raw_data" / "shell_rock" / "shell_rock_13.8kpa_r1.csv"
-CLIENT = [sys.executable, "-m", "roboball.pipeline.warm"]
+CLIENT = [sys.executable, "-m", "roboball.cli.warm"]
 
 
 def _ingest_args(out: Path) -> list:
@@ -162,14 +162,14 @@ def _job_pid(server: str, what: str) -> int:
 
 STARTER = """
 import os, sys, resource, subprocess
-from roboball.pipeline import warm
+from roboball.cli import warm
 os.environ.update({k: "1" for k in warm.SNAKEMAKE_THREAD_VARS})
 warm.start(os.environ)
 print(warm._server[0].pid, flush=True)
 runs = int(sys.argv[2])
 for _ in range(max(runs, 1)):       # --help when no job: a request the server answers after its preload
     args = sys.argv[3:] if runs else ["--help"]
-    r = subprocess.run([sys.executable, "-m", "roboball.pipeline.warm", *args], capture_output=True, text=True)
+    r = subprocess.run([sys.executable, "-m", "roboball.cli.warm", *args], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     assert not runs or "warm start" in r.stderr, r.stderr
 if sys.argv[1] == "leave":

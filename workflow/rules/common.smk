@@ -13,7 +13,7 @@ from roboball.checks import check_config_dir
 from roboball.config import first_nonfinite, load_yaml
 from roboball.errors import RoboballError
 from roboball.pipeline.codedeps import stage_fingerprints
-from roboball.pipeline import warm
+from roboball.cli import warm
 from roboball.pipeline.allocator import job_preload
 from roboball.pipeline.bytecode import compile_package
 from roboball.pipeline.numerics import job_environment
@@ -52,9 +52,9 @@ except RoboballError as exc:
 
 # The roboball of the environment running Snakemake (the project's .venv), started warm: a job
 # is forked from a process that has imported the stages' numeric stack, not started afresh
-# (roboball.pipeline.warm; the server runs in local runs only, else and with ROBOBALL_WARM=0 each
+# (roboball.cli.warm; the server runs in local runs only, else and with ROBOBALL_WARM=0 each
 # job starts a fresh process).
-ROBOBALL = f"{sys.executable} -m roboball.pipeline.warm stage"
+ROBOBALL = f"{sys.executable} -m roboball.cli.warm stage"
 
 # Every job runs with mimalloc preloaded: the Drake jobs are 8-17% cheaper, no output changes
 # (roboball.pipeline.allocator; ROBOBALL_MALLOC=system to keep glibc's malloc).

@@ -11,7 +11,7 @@ Three parts:
   become its stdin, stdout and stderr, its folder and environment the client's, and it runs
   `roboball <argv>` as the console script would.  It waits for every job, so each job's CPU time
   counts to Snakemake's like a job it started itself.
-- The client, `python -m roboball.pipeline.warm stage NAME ...` (the rules' ROBOBALL), sends its
+- The client, `python -m roboball.cli.warm stage NAME ...` (the rules' ROBOBALL), sends its
   arguments, folder, environment and descriptors, and exits with the job's status.  It runs the
   command in a fresh process instead (`python -m roboball.cli`) when there is no server, and when
   its environment differs from the server's in a variable read at start-up (STARTUP_VARS: the
@@ -74,7 +74,7 @@ def start(environ=os.environ, threads: int = 1) -> str | None:
     path = os.path.join(folder, "socket")
     log = open(os.path.join(folder, "server.log"), "wb")     # a line per job started and ended
     env = {**environ, **{k: str(threads) for k in SNAKEMAKE_THREAD_VARS}}
-    proc = subprocess.Popen([sys.executable, "-m", "roboball.pipeline.warm", "--serve", path, str(os.getpid())],
+    proc = subprocess.Popen([sys.executable, "-m", "roboball.cli.warm", "--serve", path, str(os.getpid())],
                             env=env, stdin=subprocess.DEVNULL, stdout=log, stderr=log)
     log.close()
     _server = (proc, folder)
@@ -150,7 +150,7 @@ def _ask(sock, argv) -> int | None:
     code, user, system, rss_kb = _STATUS.unpack(status)
     # Snakemake's benchmark file measures this client; a finished job's own figures go to its log
     if code == 0:
-            print(f"roboball: warm start: the job used {user + system:.2f} s of CPU ({user:.2f} user, {system:.2f} "
+        print(f"roboball: warm start: the job used {user + system:.2f} s of CPU ({user:.2f} user, {system:.2f} "
               f"system) and at most {rss_kb / 1024 ** 2:.2f} GB", file=sys.stderr)
     return code
 
@@ -190,30 +190,7 @@ def serve(path: str, parent: int) -> None:
     jobs = {}                # pidfd -> [pid, client socket, kill deadline or None]
     by_client = {}           # client socket -> pidfd
     while not stopping and os.getppid() == parent:
-        timeout = 1.0
-        deadlines = [j[2] for j in jobs.values() if j[2] is not None]
-        if deadlines:
-            timeout = max(0.0, min(timeout, min(deadlines) - _now()))
-        try:
-            ready, _, _ = select.select([listener, wake_r, *jobs, *by_client], [], [], timeout)
-        except InterruptedError:
-            continue
-        if stopping:
-            break
-        for r in ready:
-            if r is listener:
-                _accept(listener, (wake_r, wake_w), own, jobs, by_client)
-            elif r in jobs:
-                _finish(r, jobs, by_client)
-            elif r in by_client and not _alive(r):       # the client died: stop its job
-                job = jobs[by_client.pop(r)]
-                _signal_group(job[0], signal.SIGINT)
-                job[2] = _now() + KILL_AFTER_S
-            elif r == wake_r:
-                os.read(wake_r, 512)
-        for fd, job in list(jobs.items()):
-            if job[2] is not None and _now() >= job[2]:
-                _signal_group(job[0], signal.SIGKILL)
+        _serve_once(listener, (wake_r, wake_w), own, jobs, by_client)
     listener.close()
     if os.getppid() != parent:       # nobody is left to remove the server's folder
         import shutil
@@ -224,6 +201,33 @@ def serve(path: str, parent: int) -> None:
         select.select([fd], [], [], KILL_AFTER_S)
         _signal_group(jobs[fd][0], signal.SIGKILL)
         _finish(fd, jobs, by_client)
+
+
+def _serve_once(listener, pipe: tuple, own: dict, jobs: dict, by_client: dict) -> None:
+    """Wait (at most a second, or until a job's kill deadline) and handle what is ready: a new
+    request, a job that ended, a client that died, the SIGTERM pipe."""
+    timeout = 1.0
+    deadlines = [j[2] for j in jobs.values() if j[2] is not None]
+    if deadlines:
+        timeout = max(0.0, min(timeout, min(deadlines) - _now()))
+    try:
+        ready, _, _ = select.select([listener, pipe[0], *jobs, *by_client], [], [], timeout)
+    except InterruptedError:
+        return
+    for r in ready:
+        if r is listener:
+            _accept(listener, pipe, own, jobs, by_client)
+        elif r in jobs:
+            _finish(r, jobs, by_client)
+        elif r in by_client and not _alive(r):       # the client died: stop its job
+            job = jobs[by_client.pop(r)]
+            _signal_group(job[0], signal.SIGINT)
+            job[2] = _now() + KILL_AFTER_S
+        elif r == pipe[0]:
+            os.read(pipe[0], 512)
+    for job in jobs.values():
+        if job[2] is not None and _now() >= job[2]:
+            _signal_group(job[0], signal.SIGKILL)
 
 
 def _die_with(server: int) -> None:
