@@ -72,7 +72,7 @@ def start(environ=os.environ, threads: int = 1) -> str | None:
         return None
     folder = tempfile.mkdtemp(prefix="roboball-warm-")
     path = os.path.join(folder, "socket")
-    log = open(os.path.join(folder, "server.log"), "wb")     # a line per job started and ended
+    log = open(os.path.join(folder, "server.log"), "wb")  # checkpoint: not a result, the server's live log (a line per job)
     env = {**environ, **{k: str(threads) for k in SNAKEMAKE_THREAD_VARS}}
     proc = subprocess.Popen([sys.executable, "-m", "roboball.cli.warm", "--serve", path, str(os.getpid())],
                             env=env, stdin=subprocess.DEVNULL, stdout=log, stderr=log)
@@ -319,7 +319,6 @@ def _finish(pidfd: int, jobs: dict, by_client: dict) -> None:
 def _job(request: dict, fds: list, server: int) -> None:
     """In the forked child: become the client's process and run its command; exit with its status."""
     import atexit
-    import random
     import traceback
 
     code = 1
@@ -338,10 +337,6 @@ def _job(request: dict, fds: list, server: int) -> None:
         os.environ.update(request["env"])
         import tempfile
         tempfile.tempdir = None     # the job's TMPDIR (Snakemake's tmpdir resource), not the server's
-        # a fresh process's unseeded generators (none of the stages' results use them)
-        random.seed()
-        import numpy as np
-        np.random.seed()
         sys.argv = ["roboball", *request["argv"]]
         from roboball.cli.main import main
         try:
