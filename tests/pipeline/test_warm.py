@@ -3,6 +3,7 @@ process would run (same bytes, same exit status, same one-line error), a job who
 environment differs runs in a fresh process, a job whose client dies is stopped, the server ends
 with the process that started it, and the jobs' CPU time counts to that process."""
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -208,3 +209,21 @@ def _running(pid: int) -> bool:
     except (OSError, IndexError):
         return False
     return state != "Z"
+
+
+def test_a_killed_servers_folder_is_removed_by_the_next_start(tmp_path):
+    """A SIGKILLed Snakemake (the kill-and-resume test) leaves its server no chance to clean up."""
+    stale = Path(tempfile.mkdtemp(prefix=warm.FOLDER_PREFIX))
+    (stale / "pid").write_text("999999999")
+    (stale / "socket").write_text("")
+    young = Path(tempfile.mkdtemp(prefix=warm.FOLDER_PREFIX))      # a server being started: no pid yet
+    old = time.time() - 3600
+    os.utime(stale, (old, old))
+    env = {**os.environ, **{k: "1" for k in warm.SNAKEMAKE_THREAD_VARS}}
+    try:
+        assert warm.start(env)
+        assert not stale.exists() and young.exists()
+    finally:
+        warm.stop(env)
+        shutil.rmtree(young, ignore_errors=True)
+        shutil.rmtree(stale, ignore_errors=True)

@@ -47,6 +47,7 @@ STARTUP_VARS = ("NPY_", "OPENBLAS_", "OMP_", "MKL_", "NUMBA_", "GLIBC_TUNABLES",
 SNAKEMAKE_THREAD_VARS = ("OMP_NUM_THREADS", "GOTO_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS",
                          "VECLIB_MAXIMUM_THREADS", "NUMEXPR_NUM_THREADS")
 KILL_AFTER_S = 10.0
+FOLDER_PREFIX = "roboball-warm-"    # in the temporary folder: the socket, the server's log and pid
 _HEADER = struct.Struct("!I")
 _STATUS = struct.Struct("!iddq")    # exit status, CPU user and system (s), peak resident set (kB)
 _server = None      # (Popen, socket folder) of the server this process started
@@ -70,13 +71,16 @@ def start(environ=os.environ, threads: int = 1) -> str | None:
 
     if environ.get(ENV_SWITCH, "1").strip() == "0" or not hasattr(os, "pidfd_open") or _server is not None:
         return None
-    folder = tempfile.mkdtemp(prefix="roboball-warm-")
+    _remove_stale_folders()
+    folder = tempfile.mkdtemp(prefix=FOLDER_PREFIX)
     path = os.path.join(folder, "socket")
     log = open(os.path.join(folder, "server.log"), "wb")  # checkpoint: not a result, the server's live log (a line per job)
     env = {**environ, **{k: str(threads) for k in SNAKEMAKE_THREAD_VARS}}
     proc = subprocess.Popen([sys.executable, "-m", "roboball.cli.warm", "--serve", path, str(os.getpid())],
                             env=env, stdin=subprocess.DEVNULL, stdout=log, stderr=log)
     log.close()
+    with open(os.path.join(folder, "pid"), "w") as fh:  # checkpoint: not a result, for _remove_stale_folders
+        fh.write(str(proc.pid))
     _server = (proc, folder)
     atexit.register(stop)
     # the socket exists before the preload starts; a job asking during the preload waits for it
@@ -88,6 +92,29 @@ def start(environ=os.environ, threads: int = 1) -> str | None:
         time.sleep(0.002)
     environ[ENV_SOCKET] = path
     return path
+
+
+def _remove_stale_folders() -> None:
+    """Remove the folders of servers that were killed (SIGKILL leaves no chance to clean up):
+    those whose recorded server no longer runs."""
+    import glob
+    import shutil
+    import tempfile
+
+    import time
+
+    for folder in glob.glob(os.path.join(tempfile.gettempdir(), FOLDER_PREFIX + "*")):
+        try:
+            if os.stat(folder).st_uid != os.getuid() or time.time() - os.stat(folder).st_mtime < 60.0:
+                continue        # another user's, or one being started now (its pid not yet written)
+            with open(os.path.join(folder, "pid")) as fh:
+                pid = int(fh.read())
+            with open(f"/proc/{pid}/cmdline", "rb") as fh:
+                alive = b"roboball.cli.warm" in fh.read()
+        except (OSError, ValueError):
+            alive = False
+        if not alive:
+            shutil.rmtree(folder, ignore_errors=True)
 
 
 def stop(environ=os.environ) -> None:
