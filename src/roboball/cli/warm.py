@@ -30,6 +30,7 @@ import signal
 import socket
 import struct
 import sys
+import time
 
 ENV_SOCKET = "ROBOBALL_WARM_SOCKET"
 ENV_SWITCH = "ROBOBALL_WARM"
@@ -67,7 +68,6 @@ def start(environ=os.environ, threads: int = 1) -> str | None:
     import atexit
     import subprocess
     import tempfile
-    import time
 
     if environ.get(ENV_SWITCH, "1").strip() == "0" or not hasattr(os, "pidfd_open") or _server is not None:
         return None
@@ -101,11 +101,10 @@ def _remove_stale_folders() -> None:
     import shutil
     import tempfile
 
-    import time
-
     for folder in glob.glob(os.path.join(tempfile.gettempdir(), FOLDER_PREFIX + "*")):
         try:
-            if os.stat(folder).st_uid != os.getuid() or time.time() - os.stat(folder).st_mtime < 60.0:
+            st = os.stat(folder)
+            if st.st_uid != os.getuid() or time.time() - st.st_mtime < 60.0:
                 continue        # another user's, or one being started now (its pid not yet written)
             with open(os.path.join(folder, "pid")) as fh:
                 pid = int(fh.read())
@@ -236,7 +235,7 @@ def _serve_once(listener, pipe: tuple, own: dict, jobs: dict, by_client: dict) -
     timeout = 1.0
     deadlines = [j[2] for j in jobs.values() if j[2] is not None]
     if deadlines:
-        timeout = max(0.0, min(timeout, min(deadlines) - _now()))
+        timeout = max(0.0, min(timeout, min(deadlines) - time.monotonic()))
     try:
         ready, _, _ = select.select([listener, pipe[0], *jobs, *by_client], [], [], timeout)
     except InterruptedError:
@@ -249,11 +248,11 @@ def _serve_once(listener, pipe: tuple, own: dict, jobs: dict, by_client: dict) -
         elif r in by_client and not _alive(r):       # the client died: stop its job
             job = jobs[by_client.pop(r)]
             _signal_group(job[0], signal.SIGINT)
-            job[2] = _now() + KILL_AFTER_S
+            job[2] = time.monotonic() + KILL_AFTER_S
         elif r == pipe[0]:
             os.read(pipe[0], 512)
     for job in jobs.values():
-        if job[2] is not None and _now() >= job[2]:
+        if job[2] is not None and time.monotonic() >= job[2]:
             _signal_group(job[0], signal.SIGKILL)
 
 
@@ -275,11 +274,6 @@ def _alive(conn) -> bool:
         return conn.recv(1) != b""
     except OSError:
         return False
-
-
-def _now() -> float:
-    import time
-    return time.monotonic()
 
 
 def _signal_group(pid: int, sig) -> None:
