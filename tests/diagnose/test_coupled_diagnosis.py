@@ -239,3 +239,29 @@ def test_diagnose_takes_a_coupled_recordings_logged_pressure_instead_of_fitting_
     assert "at the logged pressure" in js["baseline"]["description"]
     assert js["fit"]["rmse_before"] < 1e-3
     assert "Logged pressure 10.3 kPa (not fitted)." in (out / "report.md").read_text()
+
+
+def test_effects_that_make_a_held_out_coordinate_worse_are_reported_not_confirmed():
+    """The real second repeat alone: its effects fit the first two thirds (0.100 -> 0.010 rad) and
+    predict the last third worse (pipe 0.0796 -> 0.0861, steer 0.0750 -> 0.0984): the report, the
+    JSON and the command's line say so; a coordinate predicted better raises nothing."""
+    from roboball.diagnose.coupled_report import heldout_warning, report_md
+    pc = {"before": {"pipe_angle_rad": 0.107, "steer_angle_rad": 0.093},
+          "after": {"pipe_angle_rad": 0.0099, "steer_angle_rad": 0.0109},
+          "heldout_before": {"pipe_angle_rad": 0.0796, "steer_angle_rad": 0.0750},
+          "heldout_after": {"pipe_angle_rad": 0.0861, "steer_angle_rad": 0.0740}}
+    w = heldout_warning(pc, effects=True, one_recording=True)
+    assert "pipe_angle_rad worse than the baseline (0.0796 -> 0.0861 rad)" in w and "steer_angle_rad" not in w
+    assert "last third" in w
+    assert "left out in turn" in heldout_warning(pc, effects=True, one_recording=False)
+    assert heldout_warning(pc, effects=False, one_recording=True) is None     # nothing added, nothing to confirm
+    better = dict(pc, heldout_after={"pipe_angle_rad": 0.05, "steer_angle_rad": 0.06})
+    assert heldout_warning(better, effects=True, one_recording=True) is None
+    js = {"verdict": "unexplained", "baseline": {"description": "b", "fitted": {}, "pressure_kpa": 10.3},
+          "fit": {"per_coordinate": pc}, "noise_rad": 0.0016, "located_augmented": [], "dropped": [],
+          "missing_physics": [{"effect": "com_offset", "dof": "pipe", "parameters": {"delta": 0.11},
+                               "ci95": {"delta": [0.1, 0.12]}, "units": {"delta": "rad"}, "explains": "e",
+                               "mechanism": "m"}],
+          "heldout_folds": [], "notes": [], "heldout_warning": w}
+    assert "**Not confirmed held out:** The augmented model predicts pipe_angle_rad worse" in report_md(js)
+    assert "Not confirmed" not in report_md(dict(js, heldout_warning=None))

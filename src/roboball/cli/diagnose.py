@@ -125,7 +125,8 @@ def cmd_diagnose_coupled(args) -> int:
     found = ", ".join(f"{m['effect']} ({m['dof']})" for m in js["missing_physics"]) or "nothing missing"
     pc = js["fit"]["per_coordinate"]
     held = "; ".join(f"{c} {pc['heldout_before'][c]:.4g} -> {pc['heldout_after'][c]:.4g}" for c in pc["before"])
-    print(f"{label}: {js['verdict']} ({found}); held out {held} rad; "
+    caveat = " (worse than the baseline held out: not confirmed, see report.md)" if js.get("heldout_warning") else ""
+    print(f"{label}: {js['verdict']} ({found}); held out {held} rad{caveat}; "
           f"wrote {Path(args.out) / 'diagnosis.json'} in {time.perf_counter() - t0:.1f} s")
     return 0
 

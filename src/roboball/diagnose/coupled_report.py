@@ -95,6 +95,23 @@ def _pooled(folds: list, which: str) -> dict:
     return {c: float(np.sqrt(np.mean([f[which][c] ** 2 for f in folds]))) for c in COORDS}
 
 
+def heldout_warning(per_coordinate: dict, effects: bool, one_recording: bool) -> str | None:
+    """A sentence when the effects make a held-out coordinate worse than the baseline (None
+    otherwise): the effects are chosen on the training samples (BIC, or the inner folds), so a
+    short log can take effects that fit its first part and miss the rest.  The numbers stay as
+    measured; the sentence says how far to trust the effects."""
+    before, after = per_coordinate["heldout_before"], per_coordinate["heldout_after"]
+    worse = [c for c in COORDS if after[c] > before[c]]
+    if not effects or not worse:
+        return None
+    where, next_step = (("the recording's last third, which the fit never saw", "repeats of the test would confirm "
+                         "or refute them") if one_recording else
+                        ("the repeats left out in turn", "they fit the repeats together but not each one from the others"))
+    return ("the augmented model predicts " + " and ".join(f"{c} worse than the baseline ({before[c]:.4f} -> "
+                                                            f"{after[c]:.4f} rad)" for c in worse)
+            + f" on {where}: the effects are not confirmed ({next_step})")
+
+
 # what `diagnose_coupled` puts in its folder (checked by the command before any work)
 OUTPUT_FILES = ("diagnosis.json", "predictions.csv", "overlay.png", "report.md")
 
@@ -161,6 +178,7 @@ def diagnose_coupled(reps, laws, friction, out_dir, log=None, pressure_kpa: floa
         "dropped": [key(*c) for c in dropped],
         "notes": ["release states: the first sample, with rates from a quadratic fitted to the first 0.1 s of each log (estimated from the data, not fitted by simulation)"],
     }
+    js["heldout_warning"] = heldout_warning(js["fit"]["per_coordinate"], bool(fit.values), len(reps) == 1)
     out = output_folder(out_dir, files=OUTPUT_FILES)
     write_json_atomic(out / "diagnosis.json", js)
     write_csv_atomic(_predictions(reps, pred_base, pred_aug), out / "predictions.csv")
@@ -242,6 +260,9 @@ def report_md(js: dict) -> str:
                      f"(95 % {lo:.4g} to {hi:.4g}); {m['explains']}; physically: {m['mechanism']}.")
     if js["dropped"]:
         lines.append("- screened but dropped, their 95 % interval includes zero: " + ", ".join(js["dropped"]))
+    warning = js.get("heldout_warning")
+    if warning:
+        lines += ["", f"**Not confirmed held out:** {warning[0].upper() + warning[1:]}."]
     lines += ["", "## Held out", ""] + [f"- {h['fold']}: {'+'.join(h['effects']) or 'nothing'}; "
                                         + ", ".join(f"{c} {h['rmse_heldout_before'][c]:.4f} -> {h['rmse_heldout_after'][c]:.4f} rad"
                                                     for c in COORDS) for h in js["heldout_folds"]]
