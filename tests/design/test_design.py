@@ -143,6 +143,9 @@ def test_bad_folders_get_one_line_errors(tmp_path):
     with pytest.raises(RoboballError, match=r"diagnosis.json: not JSON"):
         read_source(tmp_path)
     (tmp_path / "diagnosis.json").write_text(json.dumps({"kind": "steer_coupled", "missing_physics": [], "fit": {}}))
+    # as `roboball diagnose` leaves a coupled folder: no details.json; the error says why, not what is missing
+    with pytest.raises(RoboballError, match="kind steer_coupled: design covers"):
+        read_source(tmp_path)
     (tmp_path / "details.json").write_text(json.dumps({"recording": "x.csv", "final_values": {}, "ci95": {},
                                                         "fit_noise": 1e-3}))
     with pytest.raises(RoboballError, match="steer_coupled"):

@@ -90,17 +90,19 @@ def read_source(folder) -> Source:
     if not folder.is_dir():
         raise RoboballError(f"{folder}: not a folder (give the output folder of `roboball diagnose`)")
     dg = _json(folder / "diagnosis.json", "not a diagnosis folder: run `roboball diagnose ... --out` first")
-    det = _json(folder / "details.json", "the diagnosis's details, written beside diagnosis.json")
     for key in ("kind", "missing_physics", "fit"):
         if key not in dg:
             raise RoboballError(f"{folder / 'diagnosis.json'}: no '{key}' (not a diagnosis.json of the contract)")
+    kind = dg["kind"]
+    # before details.json: a coupled diagnosis writes none, and its missing file would say nothing of why
+    if kind not in DESIGNABLE:
+        raise RoboballError(f"{folder / 'diagnosis.json'}: kind {kind}: design covers {', '.join(DESIGNABLE)} "
+                            f"(their candidates run on the reduced models; a {kind} diagnosis's are not simulated "
+                            "by design)")
+    det = _json(folder / "details.json", "the diagnosis's details, written beside diagnosis.json")
     for key in ("recording", "final_values", "ci95", "fit_noise"):
         if key not in det:
             raise RoboballError(f"{folder / 'details.json'}: no '{key}' (written by an older roboball? rerun the diagnosis)")
-    kind = dg["kind"]
-    if kind not in DESIGNABLE:
-        raise RoboballError(f"{folder / 'diagnosis.json'}: kind {kind}: design covers {', '.join(DESIGNABLE)} "
-                            f"(a {kind} diagnosis has no reduced model to simulate its candidates)")
     paths = str(det["recording"]).split(" + ")
     recs = []
     for p in paths:
