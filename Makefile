@@ -29,13 +29,15 @@ $(STAMP): pyproject.toml requirements.lock
 # --rerun-incomplete redoes the jobs that were cut short, so rerunning `make figures` just works.
 # The greedy scheduler: Snakemake's default (an ILP solved before every batch of jobs) costs
 # about 0.2 s of a core per job on this DAG and buys nothing with 2 cores (docs/performance.md).
-# Your own recordings: make figures RAW=DIR [OUT=DIR2] [NAME="my robot"] runs the same DAG on the
-# campaign in DIR (its MANIFEST.csv: roboball manifest DIR) and writes results/ and figures/ under
-# DIR2 (default runs/<DIR's name>/), leaving paper_figures/ alone.
+# Your own recordings: make figures RAW=DIR [OUT=DIR2] [NAME="my robot"] [MANIFEST=FILE] runs the same
+# DAG on the campaign in DIR (its MANIFEST.csv, or FILE for a folder that must stay as it is:
+# roboball manifest DIR [--out FILE]) and writes results/ and figures/ under DIR2 (default
+# runs/<DIR's name>/), leaving paper_figures/ and DIR alone.
 SNAKEMAKE_TARGETS ?=
 RAW  ?=
 OUT  ?=
 NAME ?=
+MANIFEST ?=
 SMK_FLAGS := --cores $(CORES) --scheduler greedy --rerun-incomplete --rerun-triggers mtime input params code
 RUN_DIR := $(abspath $(if $(OUT),$(OUT),runs/$(notdir $(abspath $(RAW)))))
 figures: $(STAMP)
@@ -48,6 +50,7 @@ else
 	cd "$(RUN_DIR)" && $(abspath $(BIN))/python -m roboball.pipeline.runlock $(abspath $(BIN))/snakemake \
 	  -s $(CURDIR)/Snakefile $(SNAKEMAKE_TARGETS) $(SMK_FLAGS) \
 	  --config campaign_dir="$(abspath $(RAW))" figures_dir=figures $(if $(NAME),campaign_name="$(NAME)") \
+	  $(if $(MANIFEST),campaign_manifest="$(abspath $(MANIFEST))") \
 	|| { rc=$$?; if [ -n "$$new" ] && [ ! -d "$(RUN_DIR)/results" ]; then rm -rf "$(RUN_DIR)"; fi; exit $$rc; }
 	@echo "results and figures of $(RAW): $(RUN_DIR)/figures, $(RUN_DIR)/results"
 endif

@@ -85,3 +85,23 @@ def test_the_written_manifest_is_the_one_the_workflow_reads_and_is_not_overwritt
     with pytest.raises(Exception):
         write_manifest(d, [{"file": "missing.csv", "kind": "steer_stand"}], force=True)
     assert read_manifest(d)["dynamic_data"]["pressure_kpa"] == "6.9" and not list(d.glob(".MANIFEST*"))
+
+
+def test_a_manifest_can_live_outside_a_folder_that_must_stay_as_it_is(tmp_path, capsys):
+    """--out FILE: the logs' folder (an archive, a read-only share) is left byte for byte as it
+    was; the manifest's paths stay relative to it, and the workflow reads it through
+    `campaign_manifest` (make figures RAW=DIR MANIFEST=FILE)."""
+    from roboball.pipeline.plan import Campaign
+    d = logs(tmp_path)
+    before = sorted((p.name, p.read_bytes()) for p in d.iterdir())
+    out = tmp_path / "elsewhere" / "lab.csv"
+    out.parent.mkdir()
+    assert main(["manifest", str(d), "--pressure-kpa", "unknown", "--out", str(out)]) == 0
+    assert f"next: make figures RAW={d} MANIFEST={out}" in capsys.readouterr().out
+    assert sorted((p.name, p.read_bytes()) for p in d.iterdir()) == before
+    assert sorted(p.name for p in out.parent.iterdir()) == ["lab.csv"]      # no check file left
+    assert read_manifest(d, out)["trimmed_1"]["src"] == str(d / "trimmed_1.csv")
+    camp = Campaign.from_config({"campaign_dir": str(d), "campaign_manifest": str(out)})
+    assert set(camp.recordings) == {"steering_static_stand_response", "dynamic_data", "trimmed_1"}
+    assert main(["manifest", str(d), "--pressure-kpa", "6.9", "--out", str(tmp_path / "none" / "m.csv")]) == 2
+    assert "does not exist" in capsys.readouterr().err

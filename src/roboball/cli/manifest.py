@@ -1,5 +1,6 @@
 """`roboball manifest DIR`: write a campaign's MANIFEST.csv for a folder of logs
-(roboball.ingest.survey), so that `make figures RAW=DIR` can run on it."""
+(roboball.ingest.survey), so that `make figures RAW=DIR` can run on it; with `--out FILE` the
+manifest goes there and the folder is left as it is (`make figures RAW=DIR MANIFEST=FILE`)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -14,12 +15,13 @@ def cmd_manifest(args) -> int:
 
     rows = survey(args.dir, kind=args.kind, pressure_kpa=args.pressure_kpa, steer_joint=args.steer_joint,
                   ramp_angle_deg=args.ramp_angle_deg, name=args.name)
-    path = write_manifest(args.dir, rows, force=args.force)
+    path = write_manifest(args.dir, rows, force=args.force, out=args.out)
     width = max(len(r["file"]) for r in rows)
     for r in rows:
         settings = ", ".join(f"{k} {r[k]}" for k in ("pressure_kpa", "steer_joint", "ramp_angle_deg") if r[k])
         print(f"  {r['file']:<{width}}  {r['kind']:<13}  {settings}")
-    print(f"wrote {path} ({len(rows)} recordings); next: make figures RAW={args.dir}")
+    then = f" MANIFEST={path}" if args.out else ""
+    print(f"wrote {path} ({len(rows)} recordings); next: make figures RAW={args.dir}{then}")
     return 0
 
 
@@ -33,5 +35,7 @@ def _register(sub):
     m.add_argument("--steer-joint", choices=STEER_JOINTS, help="shell releases' steer setting where no sidecar gives it")
     m.add_argument("--ramp-angle-deg", type=float, help="ramp runs' angle where no sidecar gives it (default 16)")
     m.add_argument("--name", default="", help="the campaign's name in figure titles (default: the folder's)")
-    m.add_argument("--force", action="store_true", help="replace an existing MANIFEST.csv")
+    m.add_argument("--out", type=Path, help="write the manifest here instead of DIR/MANIFEST.csv, leaving DIR as it "
+                   "is (a read-only or archived folder); then make figures RAW=DIR MANIFEST=FILE")
+    m.add_argument("--force", action="store_true", help="replace an existing manifest")
     m.set_defaults(func=cmd_manifest)

@@ -75,7 +75,8 @@ def _rows(path: Path) -> list[tuple[int, dict[str, str]]]:
     columns file and kind."""
     if not path.exists():
         raise ConfigError(f"{path}: not found; list the recordings in it (file,kind,pressure_kpa; "
-                          "'roboball manifest DIR' writes one) or rebuild the virtual campaign with 'make raw-data'")
+                          "'roboball manifest DIR' writes one, 'roboball manifest DIR --out FILE' elsewhere for "
+                          "make figures RAW=DIR MANIFEST=FILE) or rebuild the virtual campaign with 'make raw-data'")
     with open(path, newline="", encoding="utf-8-sig") as fh:
         reader = csv.DictReader(fh)
         columns = [c.strip() for c in (reader.fieldnames or [])]

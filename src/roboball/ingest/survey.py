@@ -69,20 +69,24 @@ def survey(raw_dir: str | Path, kind: str | None = None, pressure_kpa: str | Non
     return rows
 
 
-def write_manifest(raw_dir: str | Path, rows: list[dict], force: bool = False) -> Path:
-    """Write `rows` as ``<raw_dir>/MANIFEST.csv``, after the workflow's reader has accepted them
-    (nothing is written when it does not); an existing manifest is replaced only with `force`."""
+def write_manifest(raw_dir: str | Path, rows: list[dict], force: bool = False, out: str | Path | None = None) -> Path:
+    """Write `rows` as ``<raw_dir>/MANIFEST.csv``, or as `out` (a folder of logs that must stay as
+    it is: an archive, a read-only share; `file` paths stay relative to `raw_dir`), after the
+    workflow's reader has accepted them (nothing is written when it does not); an existing
+    manifest is replaced only with `force`."""
     from roboball.atomic import write_text_atomic
     from roboball.ingest.manifest import COLUMNS, read_manifest
 
-    path = Path(raw_dir) / "MANIFEST.csv"
+    path = Path(out) if out else Path(raw_dir) / "MANIFEST.csv"
     if path.exists() and not force:
         raise RoboballError(f"{path}: exists; give --force to replace it")
+    if not path.parent.is_dir():
+        raise RoboballError(f"{path}: its folder {path.parent} does not exist")
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=list(COLUMNS), lineterminator="\n")
     w.writeheader()
     w.writerows(rows)
-    tmp = write_text_atomic(Path(raw_dir) / ".MANIFEST.check.csv", buf.getvalue())
+    tmp = write_text_atomic(path.parent / f".{path.name}.check.csv", buf.getvalue())
     try:
         read_manifest(raw_dir, tmp)
     finally:

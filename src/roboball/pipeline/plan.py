@@ -38,11 +38,13 @@ def campaign_id(name: str) -> str:
 
 def campaigns_of(config: dict) -> list[dict]:
     """The run's campaigns: config `campaigns`, or the one folder of `campaign_dir` (make figures
-    RAW=DIR; named by `campaign_name`, else by its manifest, else by the folder)."""
+    RAW=DIR; named by `campaign_name`, else by its manifest, else by the folder), listed by
+    `campaign_manifest` when given (MANIFEST=FILE), else by its own MANIFEST.csv."""
     if config.get("campaign_dir"):
         raw = os.path.normpath(str(config["campaign_dir"]))
+        manifest = {"manifest": str(config["campaign_manifest"])} if config.get("campaign_manifest") else {}
         return [{"id": "", "name": str(config.get("campaign_name") or ""), "raw": raw,
-                 "diagnose_recordings": True, "fallback_name": os.path.basename(raw)}]
+                 "diagnose_recordings": True, "fallback_name": os.path.basename(raw), **manifest}]
     return [dict(c) for c in config["campaigns"]]
 
 
