@@ -27,7 +27,7 @@ def cmd_manifest(args) -> int:
 
 @register_command
 def _register(sub):
-    m = sub.add_parser("manifest", help="write DIR/MANIFEST.csv for a folder of logs (make figures RAW=DIR)")
+    m = sub.add_parser("manifest", help="write DIR/MANIFEST.csv (or --out FILE) for a folder of logs (make figures RAW=DIR)")
     m.add_argument("dir", type=Path, help="the folder of recordings (native logs or time_s CSVs with sidecars)")
     m.add_argument("--kind", choices=RECORDED, help="the kind of logs whose sidecar and format do not tell it")
     m.add_argument("--pressure-kpa", help="shell gauge pressure (kPa) of shell, ramp and coupled logs without one "
