@@ -4,8 +4,9 @@ recording kinds, `make figures RAW=DIR OUT=DIR2`.
 Fast: the virtual campaign with each kind removed in turn, and with its shell releases at one
 pressure, is planned by Snakemake (a dry run) with only what depends on the missing kind left
 out, saying why.  Slow (CI): the same partial campaigns, reduced to two pressures and a short
-configuration, run to the end; and the five public real logs, under their own file names with a
-manifest written by `roboball manifest`, go through `make figures RAW=... OUT=...`.
+configuration, run to the end; and the five public real logs, in their own folder with a
+manifest written elsewhere by `roboball manifest --out`, go through `make figures RAW=...
+MANIFEST=... OUT=...` and leave that folder as it was.
 """
 from __future__ import annotations
 
@@ -130,14 +131,15 @@ def test_a_partial_campaign_runs_to_the_end(tmp_path, case):
 @pytest.mark.slow
 @pytest.mark.skipif(not REAL_DATA.is_dir(), reason="real logs not available (../shared/data/roboball_real)")
 def test_the_public_real_logs_are_a_campaign_like_any_other(tmp_path):
-    raw = tmp_path / "roboball_real"
-    raw.mkdir()
-    for p in sorted(REAL_DATA.glob("*.csv")):
-        shutil.copy2(p, raw / p.name)
-    subprocess.run([ROBOBALL, "manifest", str(raw), "--pressure-kpa", "unknown", "--steer-joint", "unknown"],
-                   check=True, capture_output=True, text=True)
+    """In their own folder, left as it is: the manifest is written elsewhere (MANIFEST=)."""
+    raw = REAL_DATA
+    before = {p.name: (p.read_bytes(), p.stat().st_mtime_ns) for p in raw.iterdir()}
+    manifest = tmp_path / "roboball_real.csv"
+    subprocess.run([ROBOBALL, "manifest", str(raw), "--pressure-kpa", "unknown", "--steer-joint", "unknown",
+                    "--out", str(manifest)], check=True, capture_output=True, text=True)
     out = tmp_path / "out"
-    r = make_figures(raw, out)
+    r = make_figures(raw, out, f"MANIFEST={manifest}")
+    assert {p.name: (p.read_bytes(), p.stat().st_mtime_ns) for p in raw.iterdir()} == before
     plan = r.stdout + r.stderr
     for line in ("skip  Fig. 8 and Table I rows: drive friction of 'roboball_real': no drive_stand recording",
                  "skip  Figs. 13, 14 (ramp descents, PME): no ramp recording",
@@ -168,3 +170,22 @@ def test_a_bad_campaign_is_refused_in_one_line_before_any_job_and_leaves_nothing
     assert r.returncode != 0
     assert f"{raw / 'MANIFEST.csv'}: line 3: steer_stand/gone.csv: file not found in {raw}" in r.stdout + r.stderr
     assert not out.exists()
+
+
+def test_a_manifest_kept_outside_the_folder_of_logs_is_what_make_figures_reads(tmp_path):
+    """make figures RAW=DIR MANIFEST=FILE plans from FILE (a dry run through the Makefile) and
+    writes nothing into DIR; without it, DIR's own MANIFEST.csv is looked for."""
+    raw = partial(tmp_path / "c", drop=("ramp", "shell_rock", "drive_stand", "steer_coupled"))
+    manifest = tmp_path / "kept_elsewhere.csv"
+    shutil.move(raw / "MANIFEST.csv", manifest)
+    before = sorted(str(p.relative_to(raw)) for p in raw.rglob("*"))
+    venv = Path(sys.executable).parent.parent
+    out = tmp_path / "out"
+    r = subprocess.run(["make", "-s", "-C", str(REPO), "figures", f"VENV={venv}", "STAMP=", f"RAW={raw}", f"OUT={out}",
+                        f"MANIFEST={manifest}", "SNAKEMAKE_TARGETS=-n"], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, (r.stdout + r.stderr)[-3000:]
+    assert "make  Fig. 7 and Table I rows: steer friction of 'c'" in r.stdout + r.stderr
+    assert sorted(str(p.relative_to(raw)) for p in raw.rglob("*")) == before
+    r = subprocess.run(["make", "-s", "-C", str(REPO), "figures", f"VENV={venv}", "STAMP=", f"RAW={raw}",
+                        f"OUT={tmp_path / 'out2'}", "SNAKEMAKE_TARGETS=-n"], capture_output=True, text=True, timeout=300)
+    assert r.returncode != 0 and f"{raw / 'MANIFEST.csv'}: not found" in r.stdout + r.stderr
