@@ -288,21 +288,3 @@ def test_stiction_that_stops_the_swings_early_is_found(tmp_path, case_id):
     # tau_s is the breakaway excess the law holds (0.47 and 0.88 N m against the truth's 0.50
     # and 0.45); as the former hump amplitude it read 0.78 and 1.48, 1.6 and 3.3 times the truth
     assert 0.4 < tau_s / case["effects"]["stiction"]["tau_s"] < 2.5
-
-
-def test_the_two_models_drake_runs_side_by_side_give_what_they_give_one_after_the_other(tmp_path, monkeypatch):
-    """The report's Drake predictions of the baseline and the augmented model run in two threads
-    where the job may use two: every file but the timings is the same as run one after the other."""
-    from roboball.diagnose import report
-    path = _stand_recording(tmp_path, {"coulomb_friction": {"tau_c": 0.35}}, viscous_c=0.12)
-    d, _ = diagnose(path, settings=FAST)
-    assert d.chosen
-    outs = {}
-    for n in (1, 2):
-        monkeypatch.setattr(report, "_threads", lambda n=n: n)
-        report.write(d, tmp_path / f"t{n}")
-        outs[n] = {f: (tmp_path / f"t{n}" / f).read_bytes() for f in ("diagnosis.json", "predictions.csv")}
-    assert outs[1] == outs[2]
-    monkeypatch.undo()
-    monkeypatch.setenv("NUMBA_NUM_THREADS", "1")
-    assert report._threads() == 1          # a pipeline job of one thread runs them one after the other

@@ -130,11 +130,8 @@ def _level_before(prep: Prepared, window, column: str, t0: float) -> float:
     return float(np.median(y[m])) if m.any() else float(np.interp(t0, t, y))
 
 
-def simulate_windows(prep: Prepared, model: ReducedModel, values: dict, effects, dt: float | None = None,
-                     notes: list | None = None) -> dict:
-    """Drake prediction at every window's samples, from the fitted release states; what it notes
-    goes to `notes` (default prep.notes: a caller running two of these at once passes its own)."""
-    notes = prep.notes if notes is None else notes
+def simulate_windows(prep: Prepared, model: ReducedModel, values: dict, effects, dt: float | None = None) -> dict:
+    """Drake prediction at every window's samples, from the fitted release states."""
     spec = drake_spec(prep, model, values, effects, dt)
     rate = 1000.0
     built = build(spec, sample_period=1.0 / rate)
@@ -156,8 +153,8 @@ def simulate_windows(prep: Prepared, model: ReducedModel, values: dict, effects,
                 if not lo <= release <= hi:
                     note = (f"release {w.index + 1}: start angle {release:.4g} rad lies past the steer joint's "
                             f"limits [{lo:g}, {hi:g}] rad of the robot facts; the Drake runs start at the limit")
-                    if note not in notes:
-                        notes.append(note)
+                    if note not in prep.notes:
+                        prep.notes.append(note)
                     release = min(max(release, lo), hi)
         rates0 = None
         if model.hidden_release:       # the unobserved steer joint's fitted release state

@@ -51,38 +51,15 @@ def write(d: Diagnosis, out_dir, drake: bool = True) -> dict:
 
 def _drake_predictions(d: Diagnosis, drake: bool):
     """The baseline's and the augmented model's predictions ({window: y}) and their RMS in Drake;
-    without `drake`, the reduced model's fitted predictions and no RMS.  The two models' runs
-    are independent and Drake lets go of Python's lock while it steps, so where the job may use
-    two threads they run side by side (0.8 s of a free-pendulum diagnosis's 1.5); their notes
-    join in the order of one after the other, and every number is the same either way."""
+    without `drake`, the reduced model's fitted predictions and no RMS."""
     if drake:
-        notes = ([], [])
-        base = (d.prep, d.model, d.baseline.values, ())
-        aug = (d.prep, d.model, d.final.values, d.chosen)
-        if d.chosen and _threads() >= 2:
-            from concurrent.futures import ThreadPoolExecutor
-            with ThreadPoolExecutor(2) as pool:
-                runs = [pool.submit(simulate_windows, *args, notes=n) for args, n in zip((base, aug), notes)]
-                drake_base, drake_aug = (r.result() for r in runs)
-        else:
-            drake_base = simulate_windows(*base, notes=notes[0])
-            drake_aug = simulate_windows(*aug, notes=notes[1]) if d.chosen else drake_base
-        for note in notes[0] + notes[1]:
-            if note not in d.prep.notes:
-                d.prep.notes.append(note)
+        drake_base = simulate_windows(d.prep, d.model, d.baseline.values, ())
+        drake_aug = simulate_windows(d.prep, d.model, d.final.values, d.chosen) if d.chosen else drake_base
         stats = (drake_rmse(d.prep, drake_base), drake_rmse(d.prep, drake_aug))
     else:
         drake_base, drake_aug = d.baseline.full.pred, d.final.full.pred
         stats = (None, None)
     return drake_base, drake_aug, stats
-
-
-def _threads() -> int:
-    """The threads this process may use: NUMBA_NUM_THREADS where it is set (a pipeline job: its
-    rule's `threads`), else the machine's cores."""
-    import os
-    given = os.environ.get("NUMBA_NUM_THREADS", "")
-    return int(given) if given.isdigit() else (os.cpu_count() or 1)
 
 
 def details(d: Diagnosis, loc_base, loc_final) -> dict:
