@@ -42,6 +42,7 @@ SMK_FLAGS := --cores $(CORES) --scheduler greedy --rerun-incomplete --rerun-trig
 RUN_DIR := $(abspath $(if $(OUT),$(OUT),runs/$(notdir $(abspath $(RAW)))))
 figures: $(STAMP)
 ifeq ($(strip $(RAW)),)
+	@test -z "$(strip $(OUT)$(NAME)$(MANIFEST))" || { echo "error: OUT=, NAME= and MANIFEST= go with RAW=DIR (your campaign's folder); without it make figures regenerates paper_figures/ from raw_data/"; exit 2; }
 	$(BIN)/python -m roboball.pipeline.runlock $(BIN)/snakemake $(SNAKEMAKE_TARGETS) $(SMK_FLAGS)
 else
 	@test -d "$(RAW)" || { echo "error: RAW=$(RAW): not a folder of recordings"; exit 2; }

@@ -189,3 +189,14 @@ def test_a_manifest_kept_outside_the_folder_of_logs_is_what_make_figures_reads(t
     r = subprocess.run(["make", "-s", "-C", str(REPO), "figures", f"VENV={venv}", "STAMP=", f"RAW={raw}",
                         f"OUT={tmp_path / 'out2'}", "SNAKEMAKE_TARGETS=-n"], capture_output=True, text=True, timeout=300)
     assert r.returncode != 0 and f"{raw / 'MANIFEST.csv'}: not found" in r.stdout + r.stderr
+
+
+@pytest.mark.parametrize("arg", ["MANIFEST=lab.csv", "OUT=out", "NAME=lab"])
+def test_a_campaigns_settings_without_its_folder_are_refused_not_ignored(arg):
+    """Without RAW=, make figures would regenerate paper_figures/ from raw_data/ and silently drop
+    OUT=, NAME= or MANIFEST=; it says so in one line instead, before anything runs."""
+    venv = Path(sys.executable).parent.parent
+    r = subprocess.run(["make", "-s", "-C", str(REPO), "figures", f"VENV={venv}", "STAMP=", arg],
+                       capture_output=True, text=True, timeout=60)
+    assert r.returncode != 0
+    assert "error: OUT=, NAME= and MANIFEST= go with RAW=DIR" in r.stdout + r.stderr
