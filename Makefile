@@ -38,11 +38,13 @@ RAW  ?=
 OUT  ?=
 NAME ?=
 MANIFEST ?=
+# the campaign settings typed on the command line (not from the environment), refused without RAW=
+RAW_ONLY_GIVEN := $(strip $(foreach v,OUT NAME MANIFEST,$(if $(filter command line,$(origin $(v))),$(if $(strip $($(v))),$(v)=))))
 SMK_FLAGS := --cores $(CORES) --scheduler greedy --rerun-incomplete --rerun-triggers mtime input params code
 RUN_DIR := $(abspath $(if $(OUT),$(OUT),runs/$(notdir $(abspath $(RAW)))))
 figures: $(STAMP)
 ifeq ($(strip $(RAW)),)
-	@test -z "$(strip $(OUT)$(NAME)$(MANIFEST))" || { echo "error: OUT=, NAME= and MANIFEST= go with RAW=DIR (your campaign's folder); without it make figures regenerates paper_figures/ from raw_data/"; exit 2; }
+	@test -z "$(RAW_ONLY_GIVEN)" || { echo "error: $(RAW_ONLY_GIVEN) given without RAW=DIR: OUT=, NAME= and MANIFEST= go with your campaign's folder; without it make figures regenerates paper_figures/ from raw_data/"; exit 2; }
 	$(BIN)/python -m roboball.pipeline.runlock $(BIN)/snakemake $(SNAKEMAKE_TARGETS) $(SMK_FLAGS)
 else
 	@test -d "$(RAW)" || { echo "error: RAW=$(RAW): not a folder of recordings"; exit 2; }

@@ -199,4 +199,12 @@ def test_a_campaigns_settings_without_its_folder_are_refused_not_ignored(arg):
     r = subprocess.run(["make", "-s", "-C", str(REPO), "figures", f"VENV={venv}", "STAMP=", arg],
                        capture_output=True, text=True, timeout=60)
     assert r.returncode != 0
-    assert "error: OUT=, NAME= and MANIFEST= go with RAW=DIR" in r.stdout + r.stderr
+    assert f"error: {arg.split('=')[0]}= given without RAW=DIR" in r.stdout + r.stderr
+
+
+def test_an_environment_variable_named_like_a_campaign_setting_does_not_stop_make_figures():
+    """Make reads the environment as variables: a shell's NAME or OUT must not refuse a plain run."""
+    venv = Path(sys.executable).parent.parent
+    r = subprocess.run(["make", "-s", "-C", str(REPO), "figures", f"VENV={venv}", "STAMP=", "SNAKEMAKE_TARGETS=-n"],
+                       capture_output=True, text=True, timeout=300, env={**os.environ, "NAME": "x", "OUT": "y"})
+    assert r.returncode == 0, (r.stdout + r.stderr)[-2000:]
