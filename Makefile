@@ -11,7 +11,7 @@ STAMP   := $(VENV)/.installed
 CORES   ?= 2
 UV      := uv==0.13.9
 
-.PHONY: figures test test-slow test-e2e test-all raw-data clean-results venv
+.PHONY: figures campaign-args test test-slow test-e2e test-all raw-data clean-results venv
 
 venv: $(STAMP)
 
@@ -42,9 +42,8 @@ MANIFEST ?=
 RAW_ONLY_GIVEN := $(strip $(foreach v,OUT NAME MANIFEST,$(if $(filter command line,$(origin $(v))),$(if $(strip $($(v))),$(v)=))))
 SMK_FLAGS := --cores $(CORES) --scheduler greedy --rerun-incomplete --rerun-triggers mtime input params code
 RUN_DIR := $(abspath $(if $(OUT),$(OUT),runs/$(notdir $(abspath $(RAW)))))
-figures: $(STAMP)
+figures: campaign-args $(STAMP)
 ifeq ($(strip $(RAW)),)
-	@test -z "$(RAW_ONLY_GIVEN)" || { echo "error: $(RAW_ONLY_GIVEN) given without RAW=DIR: OUT=, NAME= and MANIFEST= go with your campaign's folder; without it make figures regenerates paper_figures/ from raw_data/"; exit 2; }
 	$(BIN)/python -m roboball.pipeline.runlock $(BIN)/snakemake $(SNAKEMAKE_TARGETS) $(SMK_FLAGS)
 else
 	@test -d "$(RAW)" || { echo "error: RAW=$(RAW): not a folder of recordings"; exit 2; }
@@ -57,6 +56,10 @@ else
 	|| { rc=$$?; if [ -n "$$new" ] && [ ! -d "$(RUN_DIR)/results" ]; then rm -rf "$(RUN_DIR)"; fi; exit $$rc; }
 	@echo "results and figures of $(RAW): $(RUN_DIR)/figures, $(RUN_DIR)/results"
 endif
+
+# Checked before anything else runs (the environment included).
+campaign-args:
+	@test -n "$(strip $(RAW))" || test -z "$(RAW_ONLY_GIVEN)" || { echo "error: $(RAW_ONLY_GIVEN) given without RAW=DIR: OUT=, NAME= and MANIFEST= go with your campaign's folder; without it make figures regenerates paper_figures/ from raw_data/"; exit 2; }
 
 # The everyday suite (about 5 minutes on 2 cores); the slow tests (whole campaign regeneration,
 # kill-and-resume, the browser, the real logs' diagnoses and friction chains) run in CI after it

@@ -203,8 +203,8 @@ def test_a_campaigns_settings_without_its_folder_are_refused_not_ignored(arg):
 
 
 def test_an_environment_variable_named_like_a_campaign_setting_does_not_stop_make_figures():
-    """Make reads the environment as variables: a shell's NAME or OUT must not refuse a plain run."""
-    venv = Path(sys.executable).parent.parent
-    r = subprocess.run(["make", "-s", "-C", str(REPO), "figures", f"VENV={venv}", "STAMP=", "SNAKEMAKE_TARGETS=-n"],
-                       capture_output=True, text=True, timeout=300, env={**os.environ, "NAME": "x", "OUT": "y"})
-    assert r.returncode == 0, (r.stdout + r.stderr)[-2000:]
+    """Make reads the environment as variables: a shell's NAME or OUT must not refuse a plain run
+    (the check `make figures` runs first)."""
+    r = subprocess.run(["make", "-s", "-C", str(REPO), "campaign-args"], capture_output=True, text=True, timeout=60,
+                       env={**os.environ, "NAME": "x", "OUT": "y", "MANIFEST": "z"})
+    assert r.returncode == 0, r.stdout + r.stderr
