@@ -105,3 +105,17 @@ def test_a_manifest_can_live_outside_a_folder_that_must_stay_as_it_is(tmp_path, 
     assert set(camp.recordings) == {"steering_static_stand_response", "dynamic_data", "trimmed_1"}
     assert main(["manifest", str(d), "--pressure-kpa", "6.9", "--out", str(tmp_path / "none" / "m.csv")]) == 2
     assert "does not exist" in capsys.readouterr().err
+
+
+def test_a_read_only_folder_of_logs_is_told_about_out(tmp_path, monkeypatch, capsys):
+    """Where DIR cannot be written (an archive, a share), the one-line error says how to keep the
+    manifest elsewhere.  (Checked with os.access, which a root user always passes: patched here.)"""
+    import os
+    d = logs(tmp_path)
+    real_access = os.access
+    monkeypatch.setattr(os, "access", lambda p, mode: False if Path(p) == d else real_access(p, mode))
+    assert main(["manifest", str(d), "--pressure-kpa", "unknown"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == (f"roboball: error: {d / 'MANIFEST.csv'}: the folder {d} is not writable; give --out FILE to keep "
+                   "the manifest elsewhere (make figures RAW=DIR MANIFEST=FILE)")
+    assert main(["manifest", str(d), "--pressure-kpa", "unknown", "--out", str(tmp_path / "m.csv")]) == 0

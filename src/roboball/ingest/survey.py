@@ -82,6 +82,9 @@ def write_manifest(raw_dir: str | Path, rows: list[dict], force: bool = False, o
         raise RoboballError(f"{path}: exists; give --force to replace it")
     if not path.parent.is_dir():
         raise RoboballError(f"{path}: its folder {path.parent} does not exist")
+    if not os.access(path.parent, os.W_OK):
+        hint = "" if out else "; give --out FILE to keep the manifest elsewhere (make figures RAW=DIR MANIFEST=FILE)"
+        raise RoboballError(f"{path}: the folder {path.parent} is not writable{hint}")
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=list(COLUMNS), lineterminator="\n")
     w.writeheader()
