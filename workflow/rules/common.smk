@@ -54,7 +54,7 @@ except RoboballError as exc:
 # is forked from a process that has imported the stages' numeric stack, not started afresh
 # (roboball.cli.warm; the server runs in local runs only, else and with ROBOBALL_WARM=0 each
 # job starts a fresh process).
-ROBOBALL = f"{sys.executable} -m roboball.cli.warm stage"
+ROBOBALL = f"{sys.executable} -m {warm.MODULE} stage"
 
 # Every job runs with mimalloc preloaded: the Drake jobs are 8-17% cheaper, no output changes
 # (roboball.pipeline.allocator; ROBOBALL_MALLOC=system to keep glibc's malloc).

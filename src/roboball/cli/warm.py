@@ -49,6 +49,7 @@ SNAKEMAKE_THREAD_VARS = ("OMP_NUM_THREADS", "GOTO_NUM_THREADS", "OPENBLAS_NUM_TH
                          "VECLIB_MAXIMUM_THREADS", "NUMEXPR_NUM_THREADS")
 KILL_AFTER_S = 10.0
 FOLDER_PREFIX = "roboball-warm-"    # in the temporary folder: the socket, the server's log and pid
+MODULE = "roboball.cli.warm"        # run as `python -m MODULE`: the server, the rules' client
 _HEADER = struct.Struct("!I")
 _STATUS = struct.Struct("!iddq")    # exit status, CPU user and system (s), peak resident set (kB)
 _server = None      # (Popen, socket folder) of the server this process started
@@ -76,7 +77,7 @@ def start(environ=os.environ, threads: int = 1) -> str | None:
     path = os.path.join(folder, "socket")
     log = open(os.path.join(folder, "server.log"), "wb")  # checkpoint: not a result, the server's live log (a line per job)
     env = {**environ, **{k: str(threads) for k in SNAKEMAKE_THREAD_VARS}}
-    proc = subprocess.Popen([sys.executable, "-m", "roboball.cli.warm", "--serve", path, str(os.getpid())],
+    proc = subprocess.Popen([sys.executable, "-m", MODULE, "--serve", path, str(os.getpid())],
                             env=env, stdin=subprocess.DEVNULL, stdout=log, stderr=log)
     log.close()
     with open(os.path.join(folder, "pid"), "w") as fh:  # checkpoint: not a result, for _remove_stale_folders
@@ -109,7 +110,7 @@ def _remove_stale_folders() -> None:
             with open(os.path.join(folder, "pid")) as fh:
                 pid = int(fh.read())
             with open(f"/proc/{pid}/cmdline", "rb") as fh:
-                alive = b"roboball.cli.warm" in fh.read()
+                alive = MODULE.encode() in fh.read()
         except (OSError, ValueError):
             alive = False
         if not alive:
