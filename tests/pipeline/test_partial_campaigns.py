@@ -100,11 +100,16 @@ def test_a_partial_campaign_plans_everything_that_does_not_need_what_is_missing(
     assert "virtual test bed" not in out
 
 
+def make(*args, timeout: float = 300) -> subprocess.CompletedProcess:
+    """`make figures ARGS` of the repository with this environment (no .venv of its own)."""
+    venv = Path(sys.executable).parent.parent
+    return subprocess.run(["make", "-s", "-C", str(REPO), "figures", f"VENV={venv}", "STAMP=", *args],
+                          capture_output=True, text=True, timeout=timeout)
+
+
 # ---- slow: to the end ----------------------------------------------------------------------------
 def make_figures(raw: Path, out: Path, *extra) -> subprocess.CompletedProcess:
-    venv = Path(sys.executable).parent.parent
-    r = subprocess.run(["make", "-s", "-C", str(REPO), "figures", f"VENV={venv}", "STAMP=", f"RAW={raw}",
-                        f"OUT={out}", *extra], capture_output=True, text=True, timeout=3000)
+    r = make(f"RAW={raw}", f"OUT={out}", *extra, timeout=3000)
     assert r.returncode == 0, f"{r.stdout[-3000:]}\n{r.stderr[-5000:]}"
     return r
 
@@ -163,10 +168,8 @@ def test_the_public_real_logs_are_a_campaign_like_any_other(tmp_path):
 def test_a_bad_campaign_is_refused_in_one_line_before_any_job_and_leaves_nothing(tmp_path):
     raw = partial(tmp_path / "c", drop=("ramp", "shell_rock", "drive_stand", "steer_coupled"))
     (raw / "MANIFEST.csv").write_text((raw / "MANIFEST.csv").read_text() + "steer_stand/gone.csv,steer_stand,\n")
-    venv = Path(sys.executable).parent.parent
     out = tmp_path / "out"
-    r = subprocess.run(["make", "-s", "-C", str(REPO), "figures", f"VENV={venv}", "STAMP=", f"RAW={raw}", f"OUT={out}"],
-                       capture_output=True, text=True, timeout=300)
+    r = make(f"RAW={raw}", f"OUT={out}")
     assert r.returncode != 0
     assert f"{raw / 'MANIFEST.csv'}: line 3: steer_stand/gone.csv: file not found in {raw}" in r.stdout + r.stderr
     assert not out.exists()
@@ -179,15 +182,12 @@ def test_a_manifest_kept_outside_the_folder_of_logs_is_what_make_figures_reads(t
     manifest = tmp_path / "kept_elsewhere.csv"
     shutil.move(raw / "MANIFEST.csv", manifest)
     before = sorted(str(p.relative_to(raw)) for p in raw.rglob("*"))
-    venv = Path(sys.executable).parent.parent
     out = tmp_path / "out"
-    r = subprocess.run(["make", "-s", "-C", str(REPO), "figures", f"VENV={venv}", "STAMP=", f"RAW={raw}", f"OUT={out}",
-                        f"MANIFEST={manifest}", "SNAKEMAKE_TARGETS=-n"], capture_output=True, text=True, timeout=300)
+    r = make(f"RAW={raw}", f"OUT={out}", f"MANIFEST={manifest}", "SNAKEMAKE_TARGETS=-n")
     assert r.returncode == 0, (r.stdout + r.stderr)[-3000:]
     assert "make  Fig. 7 and Table I rows: steer friction of 'c'" in r.stdout + r.stderr
     assert sorted(str(p.relative_to(raw)) for p in raw.rglob("*")) == before
-    r = subprocess.run(["make", "-s", "-C", str(REPO), "figures", f"VENV={venv}", "STAMP=", f"RAW={raw}",
-                        f"OUT={tmp_path / 'out2'}", "SNAKEMAKE_TARGETS=-n"], capture_output=True, text=True, timeout=300)
+    r = make(f"RAW={raw}", f"OUT={tmp_path / 'out2'}", "SNAKEMAKE_TARGETS=-n")
     assert r.returncode != 0 and f"{raw / 'MANIFEST.csv'}: not found" in r.stdout + r.stderr
 
 
@@ -195,9 +195,7 @@ def test_a_manifest_kept_outside_the_folder_of_logs_is_what_make_figures_reads(t
 def test_a_campaigns_settings_without_its_folder_are_refused_not_ignored(arg):
     """Without RAW=, make figures would regenerate paper_figures/ from raw_data/ and silently drop
     OUT=, NAME= or MANIFEST=; it says so in one line instead, before anything runs."""
-    venv = Path(sys.executable).parent.parent
-    r = subprocess.run(["make", "-s", "-C", str(REPO), "figures", f"VENV={venv}", "STAMP=", arg],
-                       capture_output=True, text=True, timeout=60)
+    r = make(arg, timeout=60)
     assert r.returncode != 0
     assert f"error: {arg.split('=')[0]}= given without RAW=DIR" in r.stdout + r.stderr
 
