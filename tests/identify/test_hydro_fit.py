@@ -139,3 +139,27 @@ def test_volume_law_at_one_pressure_gives_its_volume_and_no_exponent():
                          "hydro_modulus_ci95_high_pa": [1.1e4]})
     law = hy.volume_law(fits, 400.0)
     assert law["v_ref_m3"] == pytest.approx(0.04) and math.isnan(law["exponent"])
+
+
+def test_a_pinned_modulus_stops_once_the_steps_no_longer_matter():
+    """With omega_n out of reach the modulus sits on the grid's softest edge and only the
+    dissipation moves; once the Newton step would change zeta by under a tenth of the tolerance,
+    no further (Drake) run is made: the campaign's hydro fits spent their last one or two runs each
+    on dissipation changes of 0.004-0.09%."""
+    sur = hy.Surrogate.fit(grid_table(0.0))
+    pts = target_at(1e4, 1.0, 0.0)
+    pts["omega_n_rad_s"] *= 1.2                     # faster than the softest grid shell can rock
+    target = hy.Target.of(pts)
+    calls = []
+
+    def drake(m, d):                                # 3% more damping than the grid says, 1% ripple
+        calls.append((m, d))
+        z, w = synthetic(m, d, 0.01)
+        return 1.03 * z, w
+
+    cal = hy.calibrate(sur, target, drake, tol=0.01, max_evals=8)
+    assert cal.best.modulus == pytest.approx(1e4, rel=1e-3)
+    assert abs(cal.evaluations[-1].zeta / target.zeta - 1) < 0.01     # the dissipation matched zeta
+    assert 2 <= len(calls) <= 4, calls                      # not all eight runs
+    steps = np.diff(np.log([d for _, d in calls]))
+    assert abs(steps[-1]) > 1e-3                             # the last run made was still a step that mattered
