@@ -265,3 +265,35 @@ def test_effects_that_make_a_held_out_coordinate_worse_are_reported_not_confirme
           "heldout_folds": [], "notes": [], "heldout_warning": w}
     assert "**Not confirmed held out:** The augmented model predicts pipe_angle_rad worse" in report_md(js)
     assert "Not confirmed" not in report_md(dict(js, heldout_warning=None))
+
+
+def test_the_drake_refit_stops_once_it_has_converged_on_a_rough_cost(monkeypatch):
+    """Drake's discrete steps make the refit's cost rough at its finest scales; SciPy's default
+    tolerances then spent the rest of the budget on parameter changes in the 4th-5th digit. Here a
+    damped swing stands in for Drake, with a roughness of 1e-5 rad: the fit must stop well inside
+    its budget, at the truth."""
+    from roboball.diagnose import coupled_effects as ce
+    t = np.linspace(0.0, 4.0, 201)
+    truth = {("pipe", "linear_stiffness"): 60.0, ("pipe", "viscous_damping"): 4.0}
+
+    def swing(values):
+        k = values.get(("pipe", "linear_stiffness"), 0.0)
+        c = values.get(("pipe", "viscous_damping"), 0.0)
+        y = 0.3 * np.exp(-c * t / 8.0) * np.cos(np.sqrt(10.0 + k / 4.0) * t)
+        return y + 1e-5 * np.sin(1e7 * (k + c))          # Drake's rough last digits
+
+    rng = np.random.default_rng(2)
+    rep = Repeat("r", t, swing(truth) + rng.normal(0.0, 1e-3, t.size), np.zeros(t.size))
+    calls = []
+    monkeypatch.setattr(ce, "effect_spec", lambda base, chosen: dict(chosen))
+
+    def predict_all(spec, reps, names=None):
+        calls.append(spec)
+        return {r.name: {"pipe_angle_rad": swing(spec), "steer_angle_rad": np.zeros(t.size)} for r in reps}
+
+    monkeypatch.setattr(ce, "predict_all", predict_all)
+    start = {k: 0.7 * v for k, v in truth.items()}
+    fit = ce.refit({}, list(truth), [rep], {"r": np.ones(t.size, bool)}, start=start, max_nfev=40)
+    for k, v in truth.items():
+        assert fit.values[k] == pytest.approx(v, rel=0.01)
+    assert len(calls) <= 25, len(calls)     # Drake runs, Jacobians' included (SciPy's defaults: 30)
