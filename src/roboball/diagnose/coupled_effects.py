@@ -165,13 +165,13 @@ def _inner_cv(J, r0, groups, combo) -> float:
     return math.sqrt(sq / len(r0))
 
 
-def screen(base, reps, masks, log=None) -> tuple[list, dict]:
+def screen(base, reps, masks, log=None, preds0: dict | None = None) -> tuple[list, dict]:
     """Step 1-2 of the module docstring: the chosen candidates and the screen's table.  With two
     or more training repeats the set is chosen by its linearised inner leave-one-out error (each
     training repeat predicted from the step fitted on the others), among the sets that lower BIC;
-    with one, by BIC alone."""
+    with one, by BIC alone.  `preds0`: the baseline's predictions of the repeats, when already run."""
     names = set(masks)
-    r0 = residual(predict_all(base, reps, names), reps, masks)
+    r0 = residual(preds0 if preds0 is not None else predict_all(base, reps, names), reps, masks)
     cols = {}
     for cand in CANDIDATES:
         h = _param(cand[1]).typical
@@ -212,11 +212,13 @@ class Refit:
     delta_bic: float = 0.0
 
 
-def refit(base, chosen: list, reps, masks, start: dict | None = None, max_nfev: int = 12) -> Refit:
-    """Step 3: the chosen effects' parameters by Drake least squares on the training samples."""
+def refit(base, chosen: list, reps, masks, start: dict | None = None, max_nfev: int = 12,
+          preds0: dict | None = None) -> Refit:
+    """Step 3: the chosen effects' parameters by Drake least squares on the training samples
+    (`preds0`: the baseline's predictions, when already run)."""
     from scipy.optimize import least_squares
     names = set(masks)
-    r0 = residual(predict_all(base, reps, names), reps, masks)
+    r0 = residual(preds0 if preds0 is not None else predict_all(base, reps, names), reps, masks)
     out = Refit(rmse_base_train=float(np.sqrt(np.mean(r0 ** 2))), rmse_train=float(np.sqrt(np.mean(r0 ** 2))))
     if not chosen:
         return out
@@ -251,15 +253,15 @@ def refit(base, chosen: list, reps, masks, start: dict | None = None, max_nfev: 
     return out
 
 
-def fit_chosen(base, chosen: list, reps, masks) -> tuple[list, Refit, list]:
+def fit_chosen(base, chosen: list, reps, masks, preds0: dict | None = None) -> tuple[list, Refit, list]:
     """Refit the screen's choice, then drop every effect whose 95 % interval includes zero (the
     diagnosis's keep rule: the data must tell the effect from its absence) and refit the rest
-    once.  Returns (kept, their fit, dropped)."""
-    fit = refit(base, chosen, reps, masks)
+    once.  Returns (kept, their fit, dropped).  `preds0`: the baseline's predictions, when already run."""
+    fit = refit(base, chosen, reps, masks, preds0=preds0)
     dropped = [c for c in chosen if fit.ci95[c][0] <= 0.0 <= fit.ci95[c][1]]
     if dropped:
         chosen = [c for c in chosen if c not in dropped]
-        fit = refit(base, chosen, reps, masks, start=fit.values)
+        fit = refit(base, chosen, reps, masks, start=fit.values, preds0=preds0)
     return chosen, fit, dropped
 
 
@@ -278,10 +280,11 @@ def held_out(reps, laws, friction, pressure=None, log=None) -> list[dict]:
     for fold in folds_of(reps):
         p = pressure.folds.get(fold.name, pressure.p_kpa)
         base = baseline_spec(p, laws, friction)
-        chosen, _ = screen(base, reps, fold.train, log=log)
-        chosen, fit, dropped = fit_chosen(base, chosen, reps, fold.train)
+        preds0 = predict_all(base, reps)        # the baseline's runs: the screen's, the refits' and the test's
+        chosen, _ = screen(base, reps, fold.train, log=log, preds0=preds0)
+        chosen, fit, dropped = fit_chosen(base, chosen, reps, fold.train, preds0=preds0)
         test_names = set(fold.test)
-        before = rms_by_coord(predict_all(base, reps, test_names), reps, fold.test)
+        before = rms_by_coord(preds0, reps, fold.test)
         after = rms_by_coord(predict_all(effect_spec(base, fit.values), reps, test_names), reps, fold.test)
         out.append({"fold": fold.name, "pressure_kpa": p, "effects": [key(*c) for c in chosen],
                     "values": {key(*c): v for c, v in fit.values.items()},

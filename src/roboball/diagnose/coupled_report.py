@@ -141,10 +141,10 @@ def diagnose_coupled(reps, laws, friction, out_dir, log=None, pressure_kpa: floa
                 else fit_pressure([truncated(r, train[r.name]) for r in reps], laws, friction))
     how = "logged" if logged else "fitted"
     base = baseline_spec(pressure.p_kpa, laws, friction)
-    chosen, table = screen(base, reps, train, log=log)
-    chosen, fit, dropped = fit_chosen(base, chosen, reps, train)
-    final = effect_spec(base, fit.values)
-    pred_base, pred_aug = predict_all(base, reps), predict_all(final, reps)
+    pred_base = predict_all(base, reps)
+    chosen, table = screen(base, reps, train, log=log, preds0=pred_base)
+    chosen, fit, dropped = fit_chosen(base, chosen, reps, train, preds0=pred_base)
+    pred_aug = predict_all(effect_spec(base, fit.values), reps)
     noise = recorded_noise(reps, train)
     if len(reps) > 1:
         heldout = held_out(reps, laws, friction, pressure, log=log)
