@@ -139,6 +139,35 @@ class ReducedModel:
                 part.append((name, sl))
         return full + part
 
+    def distinct_rows(self, q0, P: dict):
+        """The distinct rows of a batch: (the first row of each, in batch order; for every row,
+        its distinct row's place), or None when no two rows are alike.  Rows are alike when their
+        start and every parameter agree bit for bit.  A row's numbers depend on the others only
+        through the order in which `effect_plan` adds the effects (whole-batch effects first), so
+        the distinct rows are returned only where they keep that order: simulating them and
+        copying each result to its duplicates then gives every row's numbers to the bit.  (A
+        diagnosis's batches repeat rows: a ramp grid of starts is screened for the pooled fit and
+        for each held-out fold, which share most of their windows.)"""
+        q0 = np.asarray(q0, dtype=float)
+        B = q0.size
+        M = np.empty((B, 1 + len(P)))
+        M[:, 0] = q0
+        for j, k in enumerate(sorted(P), start=1):
+            M[:, j] = np.broadcast_to(np.asarray(P[k], dtype=float), (B,))
+        _, first, inverse = np.unique(M.view(np.dtype((np.void, M.itemsize * M.shape[1]))).ravel(),
+                                      return_index=True, return_inverse=True)
+        if first.size == B:
+            return None
+        order = np.argsort(first)
+        rows = first[order]
+        active = active_effects(P, self.candidates)
+        sub = {k: np.broadcast_to(np.asarray(v, dtype=float), (B,))[rows] for k, v in P.items()}
+        if [n for n, _ in self.effect_plan(P, active)] != [n for n, _ in self.effect_plan(sub, active)]:
+            return None
+        place = np.empty_like(order)
+        place[order] = np.arange(order.size)
+        return rows, place[inverse.ravel()]
+
     def bind_inertia(self, P: dict, active: list):
         """The inertia (kg m^2) the active inertia effects add to the coordinate's, one value per
         batch row (zero where inactive), or None when none is active: the model's inertia M
