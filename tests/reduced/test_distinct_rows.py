@@ -66,9 +66,9 @@ def test_a_batch_without_repeats_or_whose_effect_order_would_change_is_simulated
 
 
 def test_the_diagnosis_predicts_a_batch_with_repeats_as_it_does_row_by_row_whole(tmp_path, monkeypatch):
-    """Engine.predict on a ramp screen's items (a grid of starts for the pooled fit and a fold,
-    which repeat each other's rows) gives the same numbers with and without simulating each
-    distinct row once, and simulates fewer rows."""
+    """Engine.predict on a grid of starts asked for twice (as a ramp screen asks for its pooled
+    fit's and a fold's rows) gives the same numbers with and without simulating each distinct row
+    once, and simulates half the rows."""
     from roboball.testbed.synthetic import synthetic_release_log
     from roboball.ingest.recording import Recording, write_recording
     import pandas as pd

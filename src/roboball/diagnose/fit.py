@@ -182,14 +182,8 @@ class Engine:
         horizon = max(self.windows[w].duration for _, w in items) + self.max_shift + 0.05
         n_steps = int(math.ceil(horizon / dt)) + 1
         t0 = time.process_time()
-        distinct = self.model.distinct_rows(q0, P)      # a row asked twice is simulated once
-        with np.errstate(all="ignore"):
-            if distinct is None:
-                Y, Yd = self.model.simulate(q0, P, n_steps, dt)
-            else:
-                rows, place = distinct
-                Y, Yd = self.model.simulate(q0[rows], {k: np.asarray(v)[rows] for k, v in P.items()}, n_steps, dt)
-                Y, Yd = Y[:, place], Yd[:, place]
+        with np.errstate(all="ignore"):      # a row asked twice is simulated once
+            Y, Yd, simulated = self.model.simulate_distinct(q0, P, n_steps, dt)
         # A diverging candidate (e.g. a strongly softening stiffness) gets a huge but finite
         # residual, so the fit rejects it instead of propagating NaN.
         bad = ~np.isfinite(Y)
@@ -209,7 +203,7 @@ class Engine:
                 Yd[bad] = 0.0
             Yd[~np.isfinite(Yd)] = 0.0
         self.sim_time += time.process_time() - t0
-        self.n_sims += B if distinct is None else distinct[0].size
+        self.n_sims += simulated
         out = [None] * B
         wins = np.fromiter((w for _, w in items), int, B)
         for w in np.unique(wins):

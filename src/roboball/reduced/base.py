@@ -168,6 +168,17 @@ class ReducedModel:
         place[order] = np.arange(order.size)
         return rows, place[inverse.ravel()]
 
+    def simulate_distinct(self, q0, P: dict, n_steps: int, dt: float = DT):
+        """`simulate`, each distinct row once (`distinct_rows`): (Y, Ydot) as `simulate` gives
+        them for the whole batch, and the number of rows simulated."""
+        q0 = np.asarray(q0, dtype=float)
+        found = self.distinct_rows(q0, P)
+        if found is None:
+            return (*self.simulate(q0, P, n_steps, dt), q0.size)
+        rows, place = found
+        Y, Yd = self.simulate(q0[rows], {k: np.asarray(v)[rows] for k, v in P.items()}, n_steps, dt)
+        return Y[:, place], Yd[:, place], rows.size
+
     def bind_inertia(self, P: dict, active: list):
         """The inertia (kg m^2) the active inertia effects add to the coordinate's, one value per
         batch row (zero where inactive), or None when none is active: the model's inertia M
