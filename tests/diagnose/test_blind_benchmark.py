@@ -1,4 +1,5 @@
-"""The blind benchmark's draw (benchmarks/diagnose_blind.py): every concealed effect shows."""
+"""The blind benchmark's draw (benchmarks/diagnose_blind.py): every concealed effect shows; and its last-bits
+check (benchmarks/diagnose_last_bits.py)."""
 import sys
 
 import numpy as np
@@ -106,3 +107,42 @@ def test_a_filtered_case_is_smooth_to_the_diagnosis_and_a_trimmed_one_starts_at_
     assert abs(y[0] - held) < 0.05 and abs(y[0] - held) > 0.0        # just after the let-go, moving
     assert sample_noise(t[fresh(y)], y[fresh(y)]) < SMOOTH_NOISE
     assert np.mean(np.abs(y / 1e-3 - np.round(y / 1e-3)) > 1e-3) > 0.9   # not on a 1 mrad grid
+
+
+def test_the_last_bits_check_moves_only_the_signals_and_flags_a_parameter_outside_its_interval(tmp_path, monkeypatch):
+    """benchmarks/diagnose_last_bits.py: the moved copy scales every signal by 1 + scale and keeps
+    the times and the sidecar; a parameter the moved run puts outside the exact run's 95% interval
+    is reported with its move in half-widths, one inside it is not."""
+    import json
+
+    import pandas as pd
+
+    import diagnose_last_bits as lb
+
+    case = tmp_path / "steer_stand-99"
+    (case / "in").mkdir(parents=True)
+    (case / "out").mkdir()
+    pd.DataFrame({"time_s": [0.0, 0.01, 0.02], "steer_angle_rad": [-0.043, 0.5, 0.25]}).to_csv(
+        case / "in" / "recording.csv", index=False)
+    (case / "in" / "recording.json").write_text('{"kind": "steer_stand"}')
+    mp = [{"effect": "coulomb_friction", "parameters": {"tau_c": 0.30}, "ci95": {"tau_c": [0.29, 0.31]}}]
+    (case / "out" / "diagnosis.json").write_text(json.dumps({"verdict": "augmented", "missing_physics": mp}))
+    seen = {}
+
+    def fake(csv, out, flags=()):
+        df = pd.read_csv(csv)
+        seen[csv.parent.name] = (df, json.loads((csv.parent / "recording.json").read_text()))
+        tau = 0.30 if csv.parent.name == "control" else 0.33
+        return lb._answer({"verdict": "augmented", "missing_physics": [dict(mp[0], parameters={"tau_c": tau})]})
+
+    monkeypatch.setattr(lb, "_diagnose", fake)
+    r = lb.run_case(lb.kept_case(case), 1e-6)
+    control, moved = seen["control"][0], seen["moved"][0]
+    assert seen["moved"][1] == {"kind": "steer_stand"}
+    assert np.array_equal(moved.time_s, control.time_s)
+    assert np.allclose(moved.steer_angle_rad, control.steer_angle_rad * (1 + 1e-6), rtol=1e-15, atol=0)
+    assert not np.array_equal(moved.steer_angle_rad, control.steer_angle_rad)
+    assert r["control"]["effects"] == r["moved"]["effects"] == r["blind"]["effects"] == ["coulomb_friction"]
+    out = lb._outside(r["control"], r["moved"])
+    assert len(out) == 1 and "3.00 half-widths" in out[0]
+    assert lb._outside(r["control"], r["control"]) == []
