@@ -202,3 +202,18 @@ def test_heldout_note_says_what_was_refitted_on_the_held_out_release():
     assert "predicts the held-out one from its detected release" in ramp and "no parameter at all" in ramp
     assert "3 contiguous time blocks" in _heldout_note(d("ramp"), 1)
     assert model_for("ramp", ramp_angle_deg=16.0).release_params == ()
+
+
+def test_a_stiction_in_the_creep_band_gets_the_note_that_its_intervals_are_one_optimums():
+    """report.md says a joint's Coulomb + stiction intervals understate the spread between optima
+    (benchmarks/diagnose_last_bits.py); a wide breakaway (a rolling shell's) and other effects do not get it."""
+    from roboball.diagnose.markdown import _STICK_NOTE, _missing
+
+    def js(effects):
+        return {"missing_physics": [{"effect": e, "dof": "steer", "parameters": p, "ci95": {k: [v, v] for k, v in p.items()},
+                                     "delta_bic": -50.0, "explains": "", "mechanism": ""} for e, p in effects]}
+
+    coulomb = ("coulomb_friction", {"tau_c": 0.31})
+    assert _STICK_NOTE in _missing(js([coulomb, ("stiction", {"tau_s": 0.5, "v_s": fx.V_STRIBECK})]))
+    assert _STICK_NOTE not in _missing(js([coulomb, ("stiction", {"tau_s": 4.0, "v_s": 2.9})]))
+    assert _STICK_NOTE not in _missing(js([coulomb, ("quadratic_drag", {"c2": 0.06})]))
