@@ -49,6 +49,7 @@ from roboball.diagnose.equivalents import bic_on, equivalents
 from roboball.diagnose.fit import Engine, Problem, effect_keys
 from roboball.diagnose.hidden import chosen_starts
 from roboball.diagnose.keep import KeepRule, immaterial
+from roboball.diagnose.restarts import restart_rough_fits
 from roboball.diagnose.scored import Scored, Settings
 from roboball.diagnose.sensor_fit import fit_sensor_lag, run_with_sensor_lag, without_stale
 from roboball.reduced.base import ReducedModel
@@ -284,9 +285,8 @@ class Selector(KeepRule, CrossValidation):
         return [min(trials[2 * i][0], trials[2 * i + 1][0], key=lambda p: p.rss) for i in range(len(pairs))]
 
     def _judge(self, children: list, best: Scored, base: Scored) -> list:
-        """[(model, checks)] of the grown models that beat `best` on BIC, judged `top_k` at a time in
-        order of BIC until one passes.  The first `top_k` alone let a screening BIC prune the needed
-        model (a free shell with an imbalance: stiffness + damping never judged; issue 48)."""
+        """[(model, checks)] of the grown models that beat `best` on BIC, judged `top_k` at a time in order of
+        BIC until one passes (the first `top_k` alone pruned a free imbalanced shell's stiffness + damping)."""
         todo = [sc for sc in children if sc.bic < best.bic]
         out = []
         for k in range(0, len(todo), self.s.top_k):
@@ -296,8 +296,9 @@ class Selector(KeepRule, CrossValidation):
         return out
 
     def _judge_batch(self, todo: list, base: Scored) -> list:
-        """`todo` judged: the newest effect first, against the parent; only models whose newest effect
-        passes have the models without each of their other effects cross-validated."""
+        """`todo` judged (a joint's breakaway refitted from several starts first: diagnose.restarts): the newest
+        effect against the parent; only where it passes, the models without each other effect too."""
+        restart_rough_fits(self, todo)
         self.restart_references(todo, newest_only=True)
         self.validate(todo + [self.fits[frozenset(sc.parent)] for sc in todo], references=False)
         out = [(sc, [self.check(sc, sc.effects[-1], self.fits[frozenset(sc.parent)], base)]) for sc in todo]
@@ -323,13 +324,12 @@ class Selector(KeepRule, CrossValidation):
             self.score(x, self.fits.get(frozenset(x.parent)) if x.parent is not None else None)
 
     def restart_references(self, models: list, newest_only: bool = False) -> None:
-        """Fit each model that an effect of `models` is judged against (`references`; with
-        `newest_only`, only the newest effect's) also from that larger model's values with the
-        effect left out, and keep the better fit of the set (`remember`).  A set's stored fit may
-        sit in a poorer basin than the larger model reached (the stored {Coulomb, offset} at 5.9
-        mrad RMS, where {Coulomb, offset, stiffness} reached 0.68 mrad and the stiffness itself
-        did almost nothing: the set without it reaches 0.69 mrad from there); judged against the
-        poorer fit, an effect is credited with the shared parameters' better basin and passes.
+        """Fit each model that an effect of `models` is judged against (`references`; with `newest_only`,
+        only the newest effect's) also from that larger model's values with the effect left out, and keep
+        the better fit of the set (`remember`).  A set's stored fit may sit in a poorer basin than the larger
+        model reached (the stored {Coulomb, offset} at 5.9 mrad RMS, where {Coulomb, offset, stiffness}
+        reached 0.68 mrad, the set without the stiffness 0.69 mrad from there): judged against the poorer
+        fit, an effect is credited with the shared parameters' better basin and passes.
         The keep rule compares with the same model without the effect, at its best fit found
         (a fit lower by less than the fits' own stopping tolerance, FIT_RTOL, is the same fit)."""
         trials = []
