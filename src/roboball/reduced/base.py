@@ -27,6 +27,11 @@ DT = 2e-3          # s: the models' fixed step (roboball.reduced.integrate, expl
 SPARSE_SHARE = 0.5  # an effect active on at most this share of a batch is evaluated on those rows only
 
 
+def _columns(P: dict, B: int) -> dict:
+    """Every parameter of a batch as a float array of its B rows (a scalar repeated)."""
+    return {k: np.broadcast_to(np.asarray(v, dtype=float), (B,)) for k, v in P.items()}
+
+
 @dataclass
 class BaseParam:
     """A parameter fitted inside the baseline (never reported as missing physics)."""
@@ -150,10 +155,11 @@ class ReducedModel:
         for each held-out fold, which share most of their windows.)"""
         q0 = np.asarray(q0, dtype=float)
         B = q0.size
+        cols = _columns(P, B)
         M = np.empty((B, 1 + len(P)))
         M[:, 0] = q0
         for j, k in enumerate(sorted(P), start=1):
-            M[:, j] = np.broadcast_to(np.asarray(P[k], dtype=float), (B,))
+            M[:, j] = cols[k]
         _, first, inverse = np.unique(M.view(np.dtype((np.void, M.itemsize * M.shape[1]))).ravel(),
                                       return_index=True, return_inverse=True)
         if first.size == B:
@@ -161,7 +167,7 @@ class ReducedModel:
         order = np.argsort(first)
         rows = first[order]
         active = active_effects(P, self.candidates)
-        sub = {k: np.broadcast_to(np.asarray(v, dtype=float), (B,))[rows] for k, v in P.items()}
+        sub = {k: v[rows] for k, v in cols.items()}
         if [n for n, _ in self.effect_plan(P, active)] != [n for n, _ in self.effect_plan(sub, active)]:
             return None
         place = np.empty_like(order)
@@ -176,7 +182,7 @@ class ReducedModel:
         if found is None:
             return (*self.simulate(q0, P, n_steps, dt), q0.size)
         rows, place = found
-        Y, Yd = self.simulate(q0[rows], {k: np.asarray(v)[rows] for k, v in P.items()}, n_steps, dt)
+        Y, Yd = self.simulate(q0[rows], {k: v[rows] for k, v in _columns(P, q0.size).items()}, n_steps, dt)
         return Y[:, place], Yd[:, place], rows.size
 
     def bind_inertia(self, P: dict, active: list):
