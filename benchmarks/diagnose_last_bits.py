@@ -86,6 +86,11 @@ def run_case(case: dict, scale: float) -> dict:
     return {"case": case["case"], "blind": case["blind"], **runs}
 
 
+def _key(answer: dict) -> tuple:
+    """What must not move: the verdict and the effect set."""
+    return answer.get("verdict"), answer.get("effects")
+
+
 def _rel_change(a: dict, b: dict) -> float:
     return max((abs(b[k] - v) / abs(v) for k, v in a.items() if k in b and v), default=0.0)
 
@@ -124,20 +129,19 @@ def main(argv=None) -> int:
     with ProcessPoolExecutor(max_workers=args.workers) as pool:
         for r in pool.map(run_case, cases, [args.scale] * len(cases)):
             results.append(r)
-            key = lambda a: (a.get("verdict"), a.get("effects"))
-            if "error" in r["control"] or (r["blind"] is not None and key(r["control"]) != key(r["blind"])):
+            if "error" in r["control"] or (r["blind"] is not None and _key(r["control"]) != _key(r["blind"])):
                 harness.append(r["case"])
-            same = key(r["moved"]) == key(r["control"])
+            same = _key(r["moved"]) == _key(r["control"])
             if not same:
                 moved.append(r["case"])
-            change = _rel_change(r["control"].get("parameters", {}), r["moved"].get("parameters", {})) if same else None
+            r["change"] = (_rel_change(r["control"].get("parameters", {}), r["moved"].get("parameters", {}))
+                           if same else None)
             r["outside"] = _outside(r["control"], r["moved"]) if same else []
             print(f"{r['case']:<16} {r['control'].get('verdict')} {r['control'].get('effects')}"
-                  + (f"; moved: same, parameters within {change:.1e}" if same else
+                  + (f"; moved: same, parameters within {r['change']:.1e}" if same else
                      f"; MOVED: {r['moved'].get('verdict')} {r['moved'].get('effects') or r['moved'].get('error')}")
                   + "".join(f"; OUTSIDE its 95% interval: {o}" for o in r["outside"]), flush=True)
-    changes = [_rel_change(r["control"]["parameters"], r["moved"]["parameters"]) for r in results
-               if r["case"] not in moved and "parameters" in r["control"] and "parameters" in r["moved"]]
+    changes = [r["change"] for r in results if r["change"] is not None]
     print(f"\n{len(results)} cases, signals x (1 + {args.scale:g}): {len(moved)} changed their verdict or effects"
           f"{' (' + ', '.join(moved) + ')' if moved else ''}; the others' parameters moved by at most "
           f"{max(changes, default=0.0):.1e} (relative); outside the control's 95% interval: "
