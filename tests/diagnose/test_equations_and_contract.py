@@ -204,16 +204,26 @@ def test_heldout_note_says_what_was_refitted_on_the_held_out_release():
     assert model_for("ramp", ramp_angle_deg=16.0).release_params == ()
 
 
-def test_a_stiction_in_the_creep_band_gets_the_note_that_its_intervals_are_one_optimums():
-    """report.md says a joint's Coulomb + stiction intervals understate the spread between optima
-    (benchmarks/diagnose_last_bits.py); a wide breakaway (a rolling shell's) and other effects do not get it."""
-    from roboball.diagnose.markdown import _STICK_NOTE, _missing
+def test_a_profiled_breakaway_gets_the_note_that_reads_its_profile():
+    """report.md says where a joint's breakaway's interval comes from (its profile,
+    roboball.diagnose.profile), whether the data bound it from above, and a held fit lower than the
+    estimate; a diagnosis without a profile (a rolling shell's wide breakaway, other effects) gets no note."""
+    from roboball.diagnose.markdown import _missing
 
     def js(effects):
         return {"missing_physics": [{"effect": e, "dof": "steer", "parameters": p, "ci95": {k: [v, v] for k, v in p.items()},
                                      "delta_bic": -50.0, "explains": "", "mechanism": ""} for e, p in effects]}
 
     coulomb = ("coulomb_friction", {"tau_c": 0.31})
-    assert _STICK_NOTE in _missing(js([coulomb, ("stiction", {"tau_s": 0.5, "v_s": fx.V_STRIBECK})]))
-    assert _STICK_NOTE not in _missing(js([coulomb, ("stiction", {"tau_s": 4.0, "v_s": 2.9})]))
-    assert _STICK_NOTE not in _missing(js([coulomb, ("quadratic_drag", {"c2": 0.06})]))
+    stiction = js([coulomb, ("stiction", {"tau_s": 0.5, "v_s": fx.V_STRIBECK})])
+    prof = {"values": [0.0178, 0.25, 20.0], "interval": [0.31, 20.0], "q": 3.84, "to_bound": True,
+            "lowest": {"value": 13.3, "rmse": 0.0231}}
+    text = "\n".join(_missing(stiction, {"stiction.tau_s": prof}))
+    assert "profile likelihood" in text and "[0.31, 20] N m, up to the law's bound" in text
+    assert "Held at 13.3 N m the model fits lower" in text
+    bounded = "\n".join(_missing(stiction, {"stiction.tau_s": dict(prof, interval=[0.31, 0.9], to_bound=False,
+                                                                   lowest=None)}))
+    assert "[0.31, 0.9] N m." in bounded and "bound" not in bounded.split("[0.31, 0.9]")[1].split(".")[0]
+    assert "fits lower" not in bounded
+    assert "profile" not in "\n".join(_missing(js([coulomb, ("stiction", {"tau_s": 4.0, "v_s": 2.9})]), {}))
+    assert "profile" not in "\n".join(_missing(js([coulomb, ("quadratic_drag", {"c2": 0.06})])))

@@ -26,6 +26,7 @@ def selector(noise: float = NOISE, fit_noise: float | None = None) -> Selector:
     sel = Selector.__new__(Selector)
     sel.s = Settings()
     sel.prep = SimpleNamespace(noise=noise, fit_noise=noise if fit_noise is None else fit_noise, windows=[])
+    sel.model = SimpleNamespace(held_params={})     # a stiction's width fitted (a ramp's); a joint's: test_profile.py
     return sel
 
 

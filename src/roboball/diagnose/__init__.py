@@ -10,7 +10,8 @@ release finder for records with no decaying oscillation; the fast batched
 reduced models are in roboball.reduced), fit (batched Levenberg-Marquardt by simulation error),
 scored (the selection's settings and scored models), crossval (held-out errors), keep (the keep
 rule: BIC, held-out error, materiality, 95% intervals), restarts (a joint's breakaway refitted
-from several starts before it is judged), select (beam search over small sets of
+from several starts before it is judged), profile (its profile likelihood: the breakaway's
+significance and 95% interval), select (beam search over small sets of
 effects, each effect judged against the set without it, and the verdict), equivalents (swaps
 and the equivalent explanations of the chosen effects), locate (residual by time window and
 regime), drake (the augmented model as a Drake force element and joint rotor inertia), report

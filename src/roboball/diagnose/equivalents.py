@@ -24,6 +24,7 @@ from __future__ import annotations
 import math
 
 from roboball.physics import effects as fx
+from roboball.diagnose.profile import profiled_ci95
 from roboball.diagnose.scored import Scored
 from roboball.metrics import bic
 
@@ -100,7 +101,7 @@ def _alternatives(sel, final: Scored, close: list, base: Scored) -> dict:
         sel.validate([alt], only=u)
         if any(fails for _, _, fails in sel.checks(alt, base, only=u)):
             continue
-        ci = sel.ci95(alt)
+        ci, _ = profiled_ci95(sel, alt)      # a rough magnitude's interval is its profile's
         names = fx.LIBRARY[u].param_names
         out.setdefault(e, []).append({
             "effect": u, "parameters": {p: alt.values[f"{u}.{p}"] for p in names},

@@ -27,7 +27,9 @@ parameter count (`profile_excludes_zero`), and the magnitude lies inside its bou
 chi-square holds for an interior estimate only, and a magnitude pinned at its physical bound is a
 stand-in pushed as far as it may go (the real shell log, locked, fitted a softening cubic
 stiffness at its bound of -200 N m/rad^3, Wald interval -476 to 76, for the free pendulum it has
-no term for) and keeps the Wald test.
+no term for) and keeps the Wald test.  A joint's breakaway (a stiction held in the creep band) is
+tested by the profile alone, at its bound too: its cost is rough at the scale of a stick event, and
+its Wald interval is that roughness's curvature (roboball.diagnose.profile).
 
 A model of several effects is kept only if every one of them passes these tests against the same
 model without it (roboball.diagnose.select).  Candidates that pass every test but materiality
@@ -42,6 +44,7 @@ import numpy as np
 from roboball.physics import effects as fx
 from roboball.diagnose.data import Prepared
 from roboball.diagnose.fit import effect_keys
+from roboball.diagnose.profile import rough_magnitudes
 from roboball.diagnose.scored import Scored
 from roboball.metrics import bic, lag1, n_eff
 
@@ -136,9 +139,11 @@ class KeepRule:
         """The best fit of a set of effects, where the caller keeps them (the selection's `fits`)."""
         return getattr(self, "fits", {}).get(key)
 
-    def profile_excludes_zero(self, sc: Scored, effect: str, without: Scored | None) -> bool:
+    def profile_excludes_zero(self, sc: Scored, effect: str, without: Scored | None, rough: bool = False) -> bool:
         """Whether the profile likelihood puts `effect`'s magnitude at zero outside its 95%
-        interval: the fit `without` the effect is the profile at zero (module docstring)."""
+        interval: the fit `without` the effect is the profile at zero (module docstring).  With
+        `rough` (a joint's breakaway, roboball.diagnose.profile) a magnitude at its bound is tested
+        too (there it only holds the joint), over the effect's free parameters alone."""
         from scipy.special import chdtri      # chi-square's inverse survival function
 
         if without is None or without.full.n != sc.full.n:
@@ -147,13 +152,14 @@ class KeepRule:
         mag = eff.params[0]
         x = sc.values[f"{effect}.{mag.name}"]
         margin = 1e-6 * (mag.hi - mag.lo)
-        if not mag.lo + margin < x < mag.hi - margin:
+        if not mag.lo + margin < x < mag.hi - margin and not rough:
             return False
         n, k = sc.full.n, sc.full.k
         s2 = sc.full.rss / max(n - k, 1)
         infl = n / n_eff(n, sc.rho1)
         ratio = (without.full.rss - sc.full.rss) / (s2 * infl)
-        return bool(ratio > chdtri(len(eff.params), 0.05))
+        free = [p for p in eff.params if f"{effect}.{p.name}" not in self.model.held_params]
+        return bool(ratio > chdtri(len(free) if rough else len(eff.params), 0.05))
 
     def not_itself(self, sc: Scored, effect: str, ci: dict | None = None, without: Scored | None = None) -> str:
         """Why the fitted `effect` is not shown to be itself ("" when it is): the 95% interval
@@ -164,6 +170,11 @@ class KeepRule:
         ci = ci if ci is not None else self.ci95(sc)
         eff = fx.LIBRARY[effect]
         simpler = dict(eff.reduces_to)
+        if f"{effect}.{eff.params[0].name}" in rough_magnitudes(self.model, sc.effects):
+            # its Wald interval is the curvature of a rough cost (diagnose.profile): the profile decides
+            if not self.profile_excludes_zero(sc, effect, without, rough=True):
+                return "the profile likelihood puts its magnitude's 95% interval at zero"
+            return ""
         for name in eff.defining_params():
             lo, hi = ci[f"{effect}.{name}"]
             if lo <= 0.0 <= hi and not (name == eff.params[0].name and self.profile_excludes_zero(sc, effect, without)):

@@ -12,7 +12,7 @@ from roboball.diagnose.select import Diagnosis
 def report_md(d: Diagnosis, js: dict, located_base, located_final, figures, drake_stats) -> str:
     """The report's Markdown (`js`: diagnosis.json's content; `drake_stats`: the Drake RMS of the
     baseline and the augmented model, or Nones)."""
-    lines = (_header(d, js) + _located(located_base) + _missing(js) + _equivalents(d, js) + _immaterial(d)
+    lines = (_header(d, js) + _located(located_base) + _missing(js, d.profiles) + _equivalents(d, js) + _immaterial(d)
              + _fit(d, drake_stats) + _selection(d) + _unexplained(d, located_base, located_final) + _footer(d))
     return "\n".join(lines)
 
@@ -111,9 +111,10 @@ def _located(located_base) -> list:
             "![residual by regime](regimes.png)", "", "![residual in time](windows.png)", ""]
 
 
-def _missing(js: dict) -> list:
+def _missing(js: dict, profiles: dict | None = None) -> list:
     """The effects added, one row per parameter, with intervals, delta BIC, signature and the
-    physical mechanism each stands for (given once per effect, on its first parameter's row)."""
+    physical mechanism each stands for (given once per effect, on its first parameter's row), and
+    what a rough magnitude's profile says (`profiles`: Diagnosis.profiles)."""
     lines = ["## Missing physics", ""]
     if js["missing_physics"]:
         rows = []
@@ -125,25 +126,32 @@ def _missing(js: dict) -> list:
         lines += [_md_table(rows, ["effect", "dof", "parameter", "95% interval", "delta BIC", "signature",
                                    "what it stands for"]), "",
                   "delta BIC: how much the BIC rises when the effect is left out of the final model."]
-        if any(m["effect"] == "stiction" and _in_creep_band(m["parameters"].get("v_s")) for m in js["missing_physics"]):
-            lines += ["", _STICK_NOTE]
+        for key, prof in (profiles or {}).items():
+            lines += ["", _profile_note(key, prof)]
     else:
         lines.append("None: no effect of the vocabulary passed the keep rule (see Selection).")
     return lines
 
 
-# measured: benchmarks/diagnose_last_bits.py (docs/diagnosis.md, Known limits)
-_STICK_NOTE = ("A breakaway in the creep band makes the fit's cost rough at the scale of a stick event: the 95% "
-               "intervals of this model are the curvature of the optimum the fit ended in, not the spread "
-               "between neighbouring optima. On the blind benchmark, moving every recorded sample by a part in "
-               "10^12 sent such Coulomb friction + stiction fits to another optimum, farther than these "
-               "intervals (benchmarks/diagnose_last_bits.py): its dry friction's values are less certain than "
-               "their intervals say.")
-
-
-def _in_creep_band(v_s) -> bool:
-    """Whether a stiction's width is the creep band's (held there on a joint)."""
-    return v_s is not None and math.isclose(float(v_s), fx.V_STRIBECK, rel_tol=1e-6)
+def _profile_note(key: str, prof: dict) -> str:
+    """What the profile likelihood of a rough magnitude (roboball.diagnose.profile) says of it."""
+    effect, name = key.split(".")
+    unit = next(p.unit for p in fx.LIBRARY[effect].params if p.name == name)
+    lo, hi = prof["interval"]
+    vals = prof["values"]
+    out = (f"{effect}'s {name} is a breakaway in the creep band: the fit's cost is rough at the scale of a stick "
+           f"event, so its 95% interval is the profile likelihood's, not the curvature of the optimum the fit "
+           f"ended in. The model was refitted with {name} held at {len(vals)} values from {_fmt(vals[0])} to "
+           f"{_fmt(vals[-1])} {unit}; those within the chi-square quantile (likelihood ratio at most "
+           f"{prof['q']:.2f} noise variances, inflated for the residual's autocorrelation) span "
+           f"[{_fmt(lo)}, {_fmt(hi)}] {unit}")
+    out += (f", up to the law's bound: the data bound it from below only." if prof["to_bound"] else ".")
+    if prof.get("lowest"):
+        out += (f" Held at {_fmt(prof['lowest']['value'])} {unit} the model fits lower than the estimate (RMS "
+                f"{_fmt(prof['lowest']['rmse'])}): the estimate is one of neighbouring optima.")
+    return out + (" The other parameters' intervals are the curvature at the estimate; moving every recorded "
+                  "sample by a part in 10^12 has sent such fits to another optimum, farther than those intervals "
+                  "(benchmarks/diagnose_last_bits.py).")
 
 
 def _equivalents(d: Diagnosis, js: dict) -> list:

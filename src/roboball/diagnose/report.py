@@ -75,6 +75,7 @@ def details(d: Diagnosis, loc_base, loc_final) -> dict:
         "baseline_values": d.baseline.values,
         "final_values": d.final.values,
         "ci95": {k: list(v) for k, v in d.ci95.items()},
+        "profiles": d.profiles,          # a rough magnitude's profile likelihood: its interval above
         "rounds": d.steps,
         "immaterial": d.immaterial,      # supported by the data, below materiality: not added
         "regimes_baseline": loc_base.regimes,

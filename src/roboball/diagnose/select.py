@@ -49,6 +49,7 @@ from roboball.diagnose.equivalents import bic_on, equivalents
 from roboball.diagnose.fit import Engine, Problem, effect_keys
 from roboball.diagnose.hidden import chosen_starts
 from roboball.diagnose.keep import KeepRule, immaterial
+from roboball.diagnose.profile import profiled_ci95
 from roboball.diagnose.restarts import restart_rough_fits
 from roboball.diagnose.scored import Scored, Settings
 from roboball.diagnose.sensor_fit import fit_sensor_lag, run_with_sensor_lag, without_stale
@@ -80,6 +81,7 @@ class Diagnosis:
     steer_settings: dict = field(default_factory=dict)
     # ... and which was reported, whether the data decided it, and the paired test (diagnose.steer)
     steer_decision: dict = field(default_factory=dict)
+    profiles: dict = field(default_factory=dict)       # a rough magnitude -> its profile (diagnose.profile)
 
     @property
     def effects(self) -> tuple:
@@ -105,9 +107,7 @@ class Selector(KeepRule, CrossValidation):
         self.folds = self._folds()
         self.log = log or (lambda msg: None)
         self.fits: dict = {}        # frozenset of effects -> the best fit of that model found (Scored)
-        # the baseline holds the sensor's parameters at their values (engine.sensor) while the
-        # models with effects fit them (roboball.diagnose.sensor_fit.run_with_sensor_lag)
-        self.baseline_holds_sensor = False
+        self.baseline_holds_sensor = False      # True: the models with effects alone fit the sensor (sensor_fit)
 
     # ---- problems -----------------------------------------------------------------------------
     def free_keys(self, effects, windows=None) -> list:
@@ -432,14 +432,14 @@ class Selector(KeepRule, CrossValidation):
                 if ref.key == final.key - {e}:
                     drop[e] = final.reordered(e).bic - bic_on(ref, final)
             self.score(final, base)
-        ci = self.ci95(final) if chosen else {}
+        ci, profiles = profiled_ci95(self, final) if chosen else ({}, {})
         verdict = self.verdict(base, final, chosen)
         timings["total_s"] = time.perf_counter() - t_start
         timings["simulations"] = self.engine.n_sims
         timings["batched_calls"] = self.engine.n_calls
         return Diagnosis(prep=self.prep, model=self.model, settings=self.s, baseline=base, final=final,
                          chosen=chosen, steps=steps, ci95=ci, verdict=verdict, noise=self.prep.noise,
-                         timings=timings, folds=self.folds, drop_bic=drop, alternatives=alternatives)
+                         timings=timings, folds=self.folds, drop_bic=drop, alternatives=alternatives, profiles=profiles)
 
     def verdict(self, base: Scored, final: Scored, chosen) -> str:
         return self.s.verdict(bool(chosen), base.rmse, final.rmse, base.rho1, self.prep.fit_noise)
