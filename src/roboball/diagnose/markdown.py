@@ -148,7 +148,11 @@ def _profile_note(key: str, prof: dict) -> str:
     out += (f", up to the law's bound: the data bound it from below only." if prof["to_bound"] else ".")
     if prof.get("lowest"):
         out += (f" Held at {_fmt(prof['lowest']['value'])} {unit} the model fits lower than the estimate (RMS "
-                f"{_fmt(prof['lowest']['rmse'])}): the estimate is one of neighbouring optima.")
+                f"{_fmt(prof['lowest']['rmse'])}; the estimate's likelihood ratio to it "
+                f"{_fmt(prof['lr_estimate'], 3)}): the estimate is one of the cost's local optima, and the interval "
+                "spans both.")
+    out += (" Each held fit may end in a local optimum above the profile's, so the interval is at least this "
+            "wide.")
     return out + (" The other parameters' intervals are the curvature at the estimate; moving every recorded "
                   "sample by a part in 10^12 has sent such fits to another optimum, farther than those intervals "
                   "(benchmarks/diagnose_last_bits.py).")
