@@ -142,8 +142,8 @@ def _profile_note(key: str, prof: dict) -> str:
     out = (f"{effect}'s {name} is a breakaway in the creep band: the fit's cost is rough at the scale of a stick "
            f"event, so its 95% interval is the profile likelihood's, not the curvature of the optimum the fit "
            f"ended in. The model was refitted with {name} held at {len(vals)} values from {_fmt(vals[0])} to "
-           f"{_fmt(vals[-1])} {unit}; those within the chi-square quantile (likelihood ratio at most "
-           f"{prof['q']:.2f} noise variances, inflated for the residual's autocorrelation) span "
+           f"{_fmt(vals[-1])} {unit}; the estimate and the values within the chi-square quantile (likelihood ratio "
+           f"at most {prof['q']:.2f} noise variances, inflated for the residual's autocorrelation) span "
            f"[{_fmt(lo)}, {_fmt(hi)}] {unit}")
     out += (f", up to the law's bound: the data bound it from below only." if prof["to_bound"] else ".")
     if prof.get("lowest"):
