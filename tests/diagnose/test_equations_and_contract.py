@@ -217,12 +217,14 @@ def test_a_profiled_breakaway_gets_the_note_that_reads_its_profile():
     coulomb = ("coulomb_friction", {"tau_c": 0.31})
     stiction = js([coulomb, ("stiction", {"tau_s": 0.5, "v_s": fx.V_STRIBECK})])
     prof = {"values": [0.0178, 0.25, 20.0], "interval": [0.31, 20.0], "q": 3.84, "to_bound": True,
-            "lowest": {"value": 13.3, "rmse": 0.0231}, "lr_estimate": 0.36}
+            "lowest": {"value": 13.3, "rmse": 0.0231}, "lr_estimate": 0.36, "lr_zero": 3.92}
     text = "\n".join(_missing(stiction, {"stiction.tau_s": prof}))
     assert "profile likelihood" in text and "[0.31, 20] N m, up to the law's bound" in text
     assert "Held at 13.3 N m the model fits lower" in text and "likelihood ratio to it 0.36" in text
+    assert "Without it (zero) the likelihood ratio is 3.92" in text and "borderline" in text
     bounded = "\n".join(_missing(stiction, {"stiction.tau_s": dict(prof, interval=[0.31, 0.9], to_bound=False,
-                                                                   lowest=None)}))
+                                                                   lowest=None, lr_zero=1000.0)}))
+    assert "likelihood ratio is 1000." in bounded and "borderline" not in bounded
     assert "[0.31, 0.9] N m." in bounded and "bound" not in bounded.split("[0.31, 0.9]")[1].split(".")[0]
     assert "fits lower" not in bounded
     assert "profile" not in "\n".join(_missing(js([coulomb, ("stiction", {"tau_s": 4.0, "v_s": 2.9})]), {}))

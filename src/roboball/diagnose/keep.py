@@ -44,7 +44,7 @@ import numpy as np
 from roboball.physics import effects as fx
 from roboball.diagnose.data import Prepared
 from roboball.diagnose.fit import effect_keys
-from roboball.diagnose.profile import rough_magnitudes
+from roboball.diagnose.profile import Q95, rough_magnitudes
 from roboball.diagnose.scored import Scored
 from roboball.metrics import bic, lag1, n_eff
 
@@ -154,12 +154,17 @@ class KeepRule:
         margin = 1e-6 * (mag.hi - mag.lo)
         if not mag.lo + margin < x < mag.hi - margin and not rough:
             return False
-        n, k = sc.full.n, sc.full.k
-        s2 = sc.full.rss / max(n - k, 1)
-        infl = n / n_eff(n, sc.rho1)
-        ratio = (without.full.rss - sc.full.rss) / (s2 * infl)
         free = [p for p in eff.params if f"{effect}.{p.name}" not in self.model.held_params]
-        return bool(ratio > chdtri(len(free) if rough else len(eff.params), 0.05))
+        return bool(self.zero_ratio(sc, without) > chdtri(len(free) if rough else len(eff.params), 0.05))
+
+    @staticmethod
+    def zero_ratio(sc: Scored, without: Scored | None) -> float | None:
+        """The likelihood ratio of the fit `without` an effect against `sc`, in noise variances
+        inflated for the residual's autocorrelation (None where `without` is not on sc's samples)."""
+        if without is None or without.full.n != sc.full.n:
+            return None
+        n, k = sc.full.n, sc.full.k
+        return (without.full.rss - sc.full.rss) / (sc.full.rss / max(n - k, 1) * n / n_eff(n, sc.rho1))
 
     def not_itself(self, sc: Scored, effect: str, ci: dict | None = None, without: Scored | None = None) -> str:
         """Why the fitted `effect` is not shown to be itself ("" when it is): the 95% interval
@@ -173,7 +178,9 @@ class KeepRule:
         if f"{effect}.{eff.params[0].name}" in rough_magnitudes(self.model, sc.effects):
             # its Wald interval is the curvature of a rough cost (diagnose.profile): the profile decides
             if not self.profile_excludes_zero(sc, effect, without, rough=True):
-                return "the profile likelihood puts its magnitude's 95% interval at zero"
+                ratio = self.zero_ratio(sc, without)
+                at = f" (likelihood ratio at zero {ratio:.3g}, not above {Q95:.3g})" if ratio is not None else ""
+                return f"the profile likelihood puts its magnitude's 95% interval at zero{at}"
             return ""
         for name in eff.defining_params():
             lo, hi = ci[f"{effect}.{name}"]
