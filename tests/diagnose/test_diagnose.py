@@ -144,7 +144,7 @@ def test_real_steer_stand_log_slow_swing_is_inertia_or_softer_restoring_torque_a
     assert "reflected rotor inertia of a geared joint" in section and "softer restoring torque" in section
     # a breakaway beside them lowers the BIC and the held-out error, but any value from a few N m to
     # the law's bound fits about as well (its Wald interval was 0.02 N m wide), and none nearly so:
-    # its profile's likelihood ratio at zero sits at the 95% quantile (3.29 under the pipeline's
+    # its likelihood ratio at zero sits at the 95% quantile (2.93 under the pipeline's
     # pinned numerics: refused; 3.92 with this machine's native vector code: kept), so either way
     # the profile decides it (roboball.diagnose.profile), and a kept one is bounded from below only
     if "stiction" in mp:
