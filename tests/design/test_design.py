@@ -318,3 +318,30 @@ def test_the_best_release_of_the_user_s_length_is_ranked_by_the_expected_gap():
             {"release_rad": [-0.28, 0.57], "settle_s": 1.9, "expected_chi2_gap": 9e6, "refitted": False}]
     assert _best_single(rows, user) is rows[2]
     assert _best_single([], user) is None and _best_single(rows, None) is None
+
+
+def test_a_breakaway_bounded_from_below_only_is_a_choice_between_its_interval_s_ends():
+    """A joint's breakaway whose profile interval reaches the law's bound (roboball.diagnose.profile:
+    the data bound it from below only) is a poorly pinned parameter: the design simulates the model
+    at either end of that interval, not at a Wald interval's; a pinned one is no choice."""
+    from types import SimpleNamespace
+
+    from roboball.design.inputs import choices
+
+    def source(interval):
+        values = {"viscous_c": 0.4, "coulomb_friction.tau_c": 0.5, "stiction.tau_s": 6.7, "stiction.v_s": 0.002,
+                  "q0@0": 0.8, "ts@0": 0.0}
+        ci = {"viscous_c": [0.39, 0.41], "coulomb_friction.tau_c": [0.49, 0.52], "stiction.tau_s": interval,
+              "stiction.v_s": [0.002, 0.002]}
+        mp = [{"effect": "coulomb_friction", "parameters": {"tau_c": 0.5}, "ci95": {"tau_c": ci["coulomb_friction.tau_c"]}},
+              {"effect": "stiction", "parameters": {"tau_s": 6.7, "v_s": 0.002},
+               "ci95": {"tau_s": interval, "v_s": [0.002, 0.002]}}]
+        return SimpleNamespace(kind="steer_stand", diagnosis={"missing_physics": mp},
+                               details={"final_values": values, "ci95": ci})
+
+    (choice,) = choices(source([2.14, 20.0]))
+    assert choice.about == "parameter" and choice.name.startswith("stiction.tau_s within [2.14, 20]")
+    ends = [c.values["stiction.tau_s"] for c in choice.candidates]
+    assert ends == [2.14, 20.0]
+    assert all("stiction.tau_s" not in c.sigma for c in choice.candidates)     # held at its end in each
+    assert choices(source([6.62, 6.65])) == []          # the Wald interval the profile replaced: no choice
