@@ -112,6 +112,12 @@ def n_eff(n: int, rho: float) -> float:
     return max(n * (1.0 - rho) / (1.0 + rho), 10.0)
 
 
+def inflated_variance(rss: float, n: int, k: int, rho: float) -> float:
+    """The noise variance per effectively independent sample of a fit (RSS over n - k, times
+    n / n_eff): the unit of its likelihood ratios (roboball.diagnose.keep, .profile)."""
+    return rss / max(n - k, 1) * n / n_eff(n, rho)
+
+
 def residual_tau_int(r: np.ndarray) -> float:
     """Integrated autocorrelation time (samples) of a residual series, its autocorrelation summed
     to the first zero crossing: how many samples one independent sample is worth."""

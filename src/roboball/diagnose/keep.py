@@ -46,7 +46,7 @@ from roboball.diagnose.data import Prepared
 from roboball.diagnose.fit import effect_keys
 from roboball.diagnose.profile import Q95, rough_magnitudes
 from roboball.diagnose.scored import Scored
-from roboball.metrics import bic, lag1, n_eff
+from roboball.metrics import bic, inflated_variance, lag1, n_eff
 
 
 def immaterial(steps: list, final=None) -> list:
@@ -164,7 +164,7 @@ class KeepRule:
         if without is None or without.full.n != sc.full.n:
             return None
         n, k = sc.full.n, sc.full.k
-        return (without.full.rss - sc.full.rss) / (sc.full.rss / max(n - k, 1) * n / n_eff(n, sc.rho1))
+        return (without.full.rss - sc.full.rss) / inflated_variance(sc.full.rss, n, k, sc.rho1)
 
     def not_itself(self, sc: Scored, effect: str, ci: dict | None = None, without: Scored | None = None) -> str:
         """Why the fitted `effect` is not shown to be itself ("" when it is): the 95% interval

@@ -148,8 +148,7 @@ def _profile_note(key: str, prof: dict) -> str:
     out += (f", up to the law's bound: the data bound it from below only." if prof["to_bound"] else ".")
     if prof.get("lr_zero") is not None:
         lr0 = prof["lr_zero"]
-        out += f" Without it (zero) the likelihood ratio is {lr0:.3g}" if lr0 < 1e3 else \
-            f" Without it (zero) the likelihood ratio is {lr0:.0f}"
+        out += f" Without it (zero) the likelihood ratio is {lr0:{'.3g' if lr0 < 1e3 else '.0f'}}"
         out += (", less than twice the quantile: whether the data need a breakaway at all is borderline, and a "
                 "change of rounding can decide it either way." if lr0 < 2.0 * prof["q"] else ".")
     if prof.get("lowest"):

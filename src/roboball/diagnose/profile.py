@@ -30,7 +30,7 @@ import math
 import numpy as np
 
 from roboball.diagnose.restarts import rough
-from roboball.metrics import n_eff
+from roboball.metrics import inflated_variance
 from roboball.physics import effects as fx
 
 Q95 = 3.841458820694124       # chi-square quantile, 1 degree of freedom, 95%
@@ -83,7 +83,7 @@ def profile(selector, sc, key: str) -> dict:
         probs.append(p)
     selector.engine.fit(probs, max_iter=selector.s.fit_iter)
     n, k = sc.full.n, sc.full.k
-    scale = sc.full.rss / max(n - k, 1) * n / n_eff(n, sc.rho1)
+    scale = inflated_variance(sc.full.rss, n, k, sc.rho1)
     rss = [p.rss if math.isfinite(p.rss) else math.inf for p in probs]
     without = selector.fit_of(sc.key - {effect})
     rss_zero = without.full.rss if without is not None and without.full.n == n else None
