@@ -25,11 +25,14 @@ def cmd_design(args) -> int:
         if b is None:
             print(f"{c['choice']}: no feasible experiment")
             continue
-        rel = ", ".join(f"{x:+.2f}" for x in b["release_from_rest_rad"])
-        joint = f", steer joint {b['steer_joint']}" if b.get("steer_joint") else ""
         verdict = "settles it" if c["settled"] else f"does not settle it; would: {c['sensor']}"
-        print(f"{c['choice']}: release at {rel} rad from rest{joint}, {b['settle_s']:.1f} s each: separation "
-              f"{b['separation']:.3g} noise levels ({verdict})")
+        if b["kind"] == "ramp":
+            what = f"a descent on a ramp of {b['ramp_angle_deg']:g} deg ({b['recording_s']:.1f} s)"
+        else:
+            rel = ", ".join(f"{x:+.2f}" for x in b["release_from_rest_rad"])
+            joint = f", steer joint {b['steer_joint']}" if b.get("steer_joint") else ""
+            what = f"release at {rel} rad from rest{joint}, {b['settle_s']:.1f} s each"
+        print(f"{c['choice']}: {what}: separation {b['separation']:.3g} noise levels ({verdict})")
     if not js["choices"]:
         print(f"{args.diagnosis}: nothing undecided (no alternatives, steer setting recorded, parameters pinned)")
     print(f"wrote {out / 'design.json'} in {time.perf_counter() - t0:.1f} s")

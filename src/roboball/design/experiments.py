@@ -8,11 +8,9 @@ engine (roboball.diagnose.fit.Engine on the reduced model of its kind, the senso
 included), from its fitted values and from `N_DRAWS` draws of its uncertain parameters, so the
 predictions carry the parameters' uncertainty.
 
-Not varied, and why:
-- pressure: the reduced models hold no law of how an effect's parameters change with pressure
-  (the diagnosis fits them at the recording's), so no candidate predicts another pressure;
-- a ramp angle: ramp diagnoses are not designed here (a ramp run's candidates differ in speed
-  range, which the ramp's angle and length fix; not yet built).
+A ramp run's experiments are the ramp's angle instead (roboball.design.ramp).  Not varied, and
+why: pressure: the reduced models hold no law of how an effect's parameters change with pressure
+(the diagnosis fits them at the recording's), so no candidate predicts another pressure.
 """
 from __future__ import annotations
 
@@ -45,7 +43,7 @@ class Grid:
     """Every candidate's predictions for one steer setting: releases (absolute, rad) x samples."""
 
     steer_joint: str                # shell_rock: locked / free / "as recorded"; "" elsewhere
-    releases: np.ndarray            # (W,) rad, absolute (the recording's signal at the release)
+    releases: np.ndarray            # (W,) rad, absolute (the recording's signal at the release); a ramp's angles (deg)
     t: np.ndarray                   # (N,) s since the release
     central: dict                   # candidate label -> (W, N) predicted signal at its fitted values
     var: dict                       # candidate label -> (W, N) variance over the parameter draws
@@ -92,10 +90,11 @@ def draws(values: dict, sigma: dict, engine: Engine, rng: np.random.Generator, n
     return out
 
 
-def predict(cand, kind: str, synth: Prepared, steer_joint: str | None, rng):
+def predict(cand, kind: str, synth: Prepared, steer_joint: str | None, rng, model=None):
     """(fitted-value prediction, variance over the draws, fitted-value rate), each (W, N), of
-    candidate `cand` in the synthetic recording `synth` with the shell's steer joint `steer_joint`."""
-    model = cand.model(kind, steer_joint)
+    candidate `cand` in the synthetic recording `synth` with the shell's steer joint `steer_joint`
+    (or on `model`: a ramp's at another angle)."""
+    model = model or cand.model(kind, steer_joint)
     engine = Engine(model, synth)
     if LAG_KEY in cand.values:          # seen through the sensor's fitted lag, as the log was
         engine.sensor = {LAG_KEY: cand.values[LAG_KEY]}

@@ -25,7 +25,7 @@ from roboball.reduced.models import model_for
 # a parameter whose 95% interval is wider than this share of its value is poorly pinned
 POORLY_PINNED = 0.5
 # kinds whose diagnosis runs on a reduced model (the coupled test is diagnosed in Drake)
-DESIGNABLE = ("steer_stand", "drive_stand", "shell_rock")
+DESIGNABLE = ("steer_stand", "drive_stand", "shell_rock", "ramp")
 
 
 @dataclass
@@ -38,14 +38,18 @@ class Candidate:
     values: dict
     sigma: dict
     steer_joint: str = ""        # shell_rock: "locked" or "free"; "" elsewhere
+    setup: dict = field(default_factory=dict)   # ramp: the diagnosis's angle and baseline friction
 
-    def model(self, kind: str, steer_joint: str | None = None) -> ReducedModel:
+    def model(self, kind: str, steer_joint: str | None = None, ramp_angle_deg: float | None = None) -> ReducedModel:
         """The reduced model of this candidate (a shell with its steer joint `steer_joint`,
-        default its own setting)."""
+        default its own setting; a ramp at `ramp_angle_deg`, default the user's)."""
         joint = steer_joint or self.steer_joint
         if kind == "shell_rock" and joint == "free":
             from roboball.reduced.shell_steer import ShellSteerModel
             return ShellSteerModel()
+        if kind == "ramp":
+            angle = self.setup["ramp_angle_deg"] if ramp_angle_deg is None else ramp_angle_deg
+            return model_for(kind, ramp_angle_deg=angle, friction=self.setup.get("friction") or None)
         return model_for(kind)
 
 
@@ -69,6 +73,7 @@ class Source:
     noise: float                # rad: the log's own noise (the diagnosis's fit_noise)
     residual: float             # rad: the augmented model's RMS residual on the log
     choices: list
+    setup: dict = field(default_factory=dict)   # details.json's model_setup (a ramp's angle, friction)
 
 
 def _json(path: Path, what: str) -> dict:
@@ -114,8 +119,15 @@ def read_source(folder) -> Source:
     if not (math.isfinite(noise) and noise > 0):
         raise RoboballError(f"{folder / 'details.json'}: fit_noise {det['fit_noise']!r} is not a positive number")
     residual = float(dg["fit"].get("rmse_after") or dg["fit"].get("rmse_before") or noise)
-    src = Source(folder, dg, det, prep, kind, noise, residual, [])
+    setup = det.get("model_setup") or {}
+    if kind == "ramp" and not isinstance(setup.get("ramp_angle_deg"), (int, float)):
+        raise RoboballError(f"{folder / 'details.json'}: no 'model_setup' with the ramp's angle (written by an older "
+                            "roboball? rerun the diagnosis)")
+    src = Source(folder, dg, det, prep, kind, noise, residual, [], setup)
     src.choices = choices(src)
+    for choice in src.choices:
+        for cand in choice.candidates:
+            cand.setup = setup
     return src
 
 

@@ -22,6 +22,10 @@ def write(src, js: dict, grids: dict, out_dir) -> None:
 
 
 def _settings(r: dict) -> str:
+    if r["kind"] == "ramp":
+        own = " (the user's)" if r["users_angle"] else ""
+        return (f"a descent from rest on a ramp of {r['ramp_angle_deg']:g} deg{own}, as long as the user's "
+                f"({r['recording_s']:.1f} s of recording until the first candidate leaves it)")
     rel = ", ".join(f"{x:+.2f}" for x in r["release_from_rest_rad"])
     abs_ = ", ".join(f"{x:+.3f}" for x in r["release_rad"])
     text = f"release{'s' if len(r['release_rad']) > 1 else ''} at {rel} rad from rest ({abs_} rad as recorded)"
@@ -32,9 +36,11 @@ def _settings(r: dict) -> str:
 
 
 def markdown(js: dict) -> str:
+    unit = js.get("unit", "rad")
+    u = unit.replace("/", "_")
     lines = [f"# Which recording would decide: {js['recording']}", "",
-             f"Kind `{js['kind']}`; the log's noise {js['noise_rad']:.3g} rad, the diagnosed model's residual on it "
-             f"{js['residual_rad']:.3g} rad. An experiment settles a choice when its candidates' predicted recordings "
+             f"Kind `{js['kind']}`; the log's noise {js[f'noise_{u}']:.3g} {unit}, the diagnosed model's residual on it "
+             f"{js[f'residual_{u}']:.3g} {unit}. An experiment settles a choice when its candidates' predicted recordings "
              f"differ by at least {js['settles_at_separation']:g} noise levels (RMS, the parameters' uncertainty "
              "included; the diagnosis's own materiality).", ""]
     if not js["choices"]:
@@ -54,6 +60,9 @@ def markdown(js: dict) -> str:
         lines += [f"**Best experiment** ({verdict}): {_settings(best)}: separation {best['separation']:.3g} noise levels "
                   f"(fixed parameters {best['separation_fixed_params']:.3g}; {best['separation_vs_residual']:.2g} times "
                   f"the diagnosed model's residual), expected chi^2 gap {best['expected_chi2_gap']:.4g}.", ""]
+        if best["kind"] == "ramp" and best["refitted"]:
+            lines += ["Refitted on the new run alone: a ramp diagnosis holds one angle, so the runs cannot be fitted "
+                      "together, and a joint fit could absorb no more than this (a lower bound).", ""]
         single = c.get("best_single_release")
         if single and single is not best:
             lines += [f"Best single release of the user's length: {_settings(single)}: predicted separation "
@@ -61,10 +70,12 @@ def markdown(js: dict) -> str:
                       f"uncertainty included; not refitted).", ""]
         u = c.get("user_like")
         if u and same_experiment(u, best):
-            lines += ["This is the user's own first release, recorded again: of the releases the rig allows, the "
-                      "one where the candidates part most.", ""]
+            own = ("another run on the user's own ramp: of the ramps considered, the one" if u["kind"] == "ramp" else
+                   "the user's own first release, recorded again: of the releases the rig allows, the one")
+            lines += [f"This is {own} where the candidates part most.", ""]
         elif u:
-            lines += [f"A repeat of the user's release ({_settings(u)}): separation {u['separation']:.3g}.", ""]
+            what = "Another run on the user's ramp" if u["kind"] == "ramp" else "A repeat of the user's release"
+            lines += [f"{what} ({_settings(u)}): separation {u['separation']:.3g}.", ""]
         lines += [f"Why: {c['why']}", ""]
         if not c["settled"]:
             lines += [f"No feasible experiment separates them. What would: {c['sensor']}.", ""]
@@ -90,13 +101,13 @@ def _figure(src, js: dict, grids: dict, path) -> str:
         savefig_atomic(fig, path, dpi=110)
         plt.close(fig)
         return path.name
-    ncol = max(len(best["release_rad"]) for _, (_, best) in rows)
+    ncol = max(len(best.get("release_rad", [0])) for _, (_, best) in rows)
     fig, axes = plt.subplots(2 * len(rows), ncol, figsize=(6.5 * ncol, 7.4 * len(rows)), squeeze=False,
                              gridspec_kw={"height_ratios": [3, 2] * len(rows)})
     for r, (c, (g, best)) in enumerate(rows):
         for j in range(ncol):
             top, bottom = axes[2 * r, j], axes[2 * r + 1, j]
-            if j >= len(best["release_rad"]):
+            if j >= len(best.get("release_rad", [0])):
                 top.axis("off")
                 bottom.axis("off")
                 continue
@@ -108,8 +119,9 @@ def _figure(src, js: dict, grids: dict, path) -> str:
 
 
 def _panel(top, bottom, src, c: dict, g, best: dict, j: int) -> None:
-    w = int(np.argmin(np.abs(g.releases - best["release_rad"][j])))
-    keep = g.t <= best["settle_s"] + 1e-9
+    ramp = best["kind"] == "ramp"
+    w = int(np.argmin(np.abs(g.releases - (best["ramp_angle_deg"] if ramp else best["release_rad"][j]))))
+    keep = g.t <= (g.t[-1] if ramp else best["settle_s"]) + 1e-9
     t = g.t[keep]
     labels = list(g.central)
     ref = g.central[labels[0]][w][keep]
@@ -124,19 +136,24 @@ def _panel(top, bottom, src, c: dict, g, best: dict, j: int) -> None:
             bottom.plot(t, y - ref, color=colours[k % 4], lw=1.3, label=f"{lab} - {labels[0]}")
         bottom.fill_between(t, y - ref - 2 * s, y - ref + 2 * s, color=colours[k % 4], alpha=0.2, lw=0,
                             label=f"{lab}: 2 sd of its parameter draws")
+    unit = src.prep.unit
     bottom.axhspan(-2 * src.noise, 2 * src.noise, color="0.3", alpha=0.45, lw=0,
-                   label=f"log's noise, +-2 sigma ({2 * src.noise:.2g} rad)")
+                   label=f"log's noise, +-2 sigma ({2 * src.noise:.2g} {unit})")
     still = t[~g.moving[w][keep]]
-    if still.size:        # not counted: the body has stopped (roboball.design.experiments.moving)
+    if still.size:        # not counted: the body has stopped (experiments.moving) or left the ramp (design.ramp)
+        gone = "off the ramp: not counted" if ramp else "at rest: not counted"
         for ax in (top, bottom):
-            ax.axvspan(still[0], t[-1], color="0.85", zorder=0, label="at rest: not counted" if ax is bottom else None)
-    joint = f", steer joint {best['steer_joint']}" if best.get("steer_joint") else ""
-    top.set_title(f"{c['choice']}\nrelease at {best['release_from_rest_rad'][j]:+.2f} rad from rest{joint}: "
-                  f"separation {best['separation']:.3g} noise levels", fontsize=10)
-    top.set_ylabel(f"predicted {sig} (rad)")
+            ax.axvspan(still[0], t[-1], color="0.85", zorder=0, label=gone if ax is bottom else None)
+    if ramp:
+        setting = f"ramp of {best['ramp_angle_deg']:g} deg" + (" (the user's)" if best["users_angle"] else "")
+    else:
+        joint = f", steer joint {best['steer_joint']}" if best.get("steer_joint") else ""
+        setting = f"release at {best['release_from_rest_rad'][j]:+.2f} rad from rest{joint}"
+    top.set_title(f"{c['choice']}\n{setting}: separation {best['separation']:.3g} noise levels", fontsize=10)
+    top.set_ylabel(f"predicted {sig} ({unit})")
     top.legend(fontsize=8, loc="upper right", title="candidate (band: 2 sd of parameter draws)", title_fontsize=7)
     bottom.set_xlabel("time since release (s)")
-    bottom.set_ylabel("difference (rad)")
+    bottom.set_ylabel(f"difference ({unit})")
     # below the panel, not over it: the differences fill the panel's whole height
     bottom.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.3), ncol=2, frameon=False)
     for ax in (top, bottom):

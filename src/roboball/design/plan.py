@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import time
 
+from roboball.design.ramp import experiments as ramp_experiments, grid as ramp_grid, refit as ramp_refit
 from roboball.design.experiments import grid
 from roboball.design.rank import KEEP, SETTLES, experiments
 from roboball.design.refit import refit_gaps
+from roboball.design.why import sensor, why
 
 SHORTLIST = 4       # single releases per choice refitted (roboball.design.refit): the costly step
-from roboball.design.why import sensor, why
 
 
 def steer_settings(src, choice) -> tuple:
@@ -24,19 +25,12 @@ def plan(src, log=None) -> tuple[dict, dict]:
     """(design.json content, {choice name: the best experiment's Grid})."""
     t0 = time.perf_counter()
     out = {"diagnosis": str(src.folder), "kind": src.kind, "recording": str(src.details["recording"]),
-           "noise_rad": src.noise, "residual_rad": src.residual, "settles_at_separation": SETTLES,
+           "unit": src.prep.unit, f"noise_{_u(src)}": src.noise, f"residual_{_u(src)}": src.residual,
+           "settles_at_separation": SETTLES,
            "choices": [], "experiments": []}
     grids = {}
     for choice in src.choices:
-        rows, by_setting = [], {}
-        for setting in steer_settings(src, choice):
-            g = grid(src, choice, setting)
-            rest = choice.candidates[0].model(src.kind, setting).rest
-            by_setting[setting or ""] = (g, rest)
-            rows += experiments(src, choice, g, rest)
-        rows.sort(key=lambda r: (-r["expected_chi2_gap"], r["recording_s"]))
-        user = _user_like(src, rows)
-        rows = _refitted(src, choice, rows, user, by_setting)
+        rows, user, by_setting = (_ramp_rows if src.kind == "ramp" else _rows)(src, choice)
         best = rows[0] if rows else None
         summary = {"choice": choice.name, "about": choice.about,
                    "candidates": [{"label": c.label, "effects": list(c.effects), "steer_joint": c.steer_joint or None,
@@ -56,6 +50,27 @@ def plan(src, log=None) -> tuple[dict, dict]:
     out["experiments"].sort(key=lambda r: (not r["refitted"], -r["separation"] if r["refitted"] else -r["expected_chi2_gap"]))
     out["time_s"] = round(time.perf_counter() - t0, 2)
     return out, grids
+
+
+def _rows(src, choice) -> tuple:
+    """(the choice's experiments ranked, refitted first; the one nearest a repeat of the user's
+    release; {steer setting: (Grid, rest)})."""
+    rows, by_setting = [], {}
+    for setting in steer_settings(src, choice):
+        g = grid(src, choice, setting)
+        rest = choice.candidates[0].model(src.kind, setting).rest
+        by_setting[setting or ""] = (g, rest)
+        rows += experiments(src, choice, g, rest)
+    rows.sort(key=lambda r: (-r["expected_chi2_gap"], r["recording_s"]))
+    user = _user_like(src, rows)
+    return _refitted(src, choice, rows, user, by_setting), user, by_setting
+
+
+def _ramp_rows(src, choice) -> tuple:
+    """As `_rows` for a ramp diagnosis: a run per ramp angle (roboball.design.ramp)."""
+    g = ramp_grid(src, choice)
+    rows = ramp_refit(src, choice, g, ramp_experiments(src, choice, g))
+    return rows, next((r for r in rows if r["users_angle"]), None), {"": (g, 0.0)}
 
 
 def shortlist(rows: list, user: dict | None) -> list:
@@ -89,8 +104,9 @@ def _refitted(src, choice, rows: list, user, by_setting: dict) -> list:
 def _best_single(rows: list, like: dict | None) -> dict | None:
     """The single release of `like`'s duration with the largest expected gap: the one measure
     every experiment has (the refitted separation is computed for a shortlist only, and the
-    shortlist may hold no release of that duration but the user's own)."""
-    same = [r for r in rows if like and len(r["release_rad"]) == 1 and r["settle_s"] == like["settle_s"]]
+    shortlist may hold no release of that duration but the user's own); none on a ramp."""
+    same = [r for r in rows if like and "release_rad" in like and len(r["release_rad"]) == 1
+            and r["settle_s"] == like["settle_s"]]
     return max(same, key=lambda r: r["expected_chi2_gap"], default=None)
 
 
@@ -103,6 +119,11 @@ def _user_like(src, rows: list) -> dict | None:
     q_user = float(src.prep.windows[0].release.y_release)    # the hand's release, not the first turning point
     same = [r for r in singles if r["settle_s"] == settle and r.get("steer_joint") in (None, "", _user_joint(src))]
     return min(same or singles, key=lambda r: abs(r["release_rad"][0] - q_user))
+
+
+def _u(src) -> str:
+    """The signal's unit in a key ("rad", "rad_s")."""
+    return src.prep.unit.replace("/", "_")
 
 
 def _user_joint(src) -> str:

@@ -38,9 +38,9 @@ class Scores:
     pair: list              # (S, W) -> the closest pair's labels
 
 
-def scores(g: Grid, noise: float, window_s: float) -> Scores:
+def scores(g: Grid, noise: float, window_s: float, factors=SETTLE_FACTORS) -> Scores:
     """Per (settle duration, release) the closest pair's sums (module docstring)."""
-    durations = np.array([f * window_s for f in SETTLE_FACTORS])
+    durations = np.array([f * window_s for f in factors])
     labels = list(g.central)
     S, W = len(durations), len(g.releases)
     gap = np.full((S, W), np.inf)
@@ -63,8 +63,8 @@ def scores(g: Grid, noise: float, window_s: float) -> Scores:
 
 
 def same_experiment(a: dict, b: dict) -> bool:
-    """Whether two ranked experiments are the same recording (releases, settle, steer clamp)."""
-    return all(a.get(k) == b.get(k) for k in ("release_rad", "settle_s", "steer_joint"))
+    """Whether two ranked experiments are the same recording (releases, settle, steer clamp, ramp)."""
+    return all(a.get(k) == b.get(k) for k in ("release_rad", "settle_s", "steer_joint", "ramp_angle_deg"))
 
 
 def experiments(src, choice, g: Grid, rest: float) -> list:

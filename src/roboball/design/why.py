@@ -12,6 +12,8 @@ from roboball.reduced.models import model_for
 
 def why(src, choice, best: dict, user: dict | None) -> str:
     """One paragraph: where the best experiment's predictions part and the mechanism behind it."""
+    if src.kind == "ramp":
+        return _ramp_why(src, choice, best, user)
     a, b = best["closest_pair"]
     at = ", ".join(f"{x:+.2f}" for x in best["release_from_rest_rad"])
     text = (f"released at {at} rad from rest, {a} and {b} differ by {best['rms_difference_rad']:.3g} rad RMS "
@@ -49,6 +51,33 @@ def _physics(src, choice, best: dict) -> str:
     if choice.about == "parameter":
         return "The parameter's two ends predict recordings that part where its effect acts most."
     return ""
+
+
+def _ramp_why(src, choice, best: dict, user: dict | None) -> str:
+    a, b = best["closest_pair"]
+    unit = src.prep.unit
+    diff = best[f"rms_difference_{unit.replace('/', '_')}"]
+    text = (f"on a ramp of {best['ramp_angle_deg']:g} deg, {a} and {b} differ by {diff:.3g} {unit} RMS before the "
+            f"first leaves the ramp ({best['separation']:.3g} noise levels of the averaged rate"
+            + (", refitted" if best["refitted"] else ", the parameters' uncertainty included") + ")")
+    if user is not None and user is not best:
+        text += f", where a run on the user's {user['ramp_angle_deg']:g} deg ramp separates them by {user['separation']:.3g}"
+    pair = {a, b}
+    if pair == {"viscous_damping", "quadratic_drag"}:
+        physics = ("A viscous loss brakes in proportion to the speed, a quadratic drag as its square: fitted to one "
+                   "ramp's speeds they agree there, and part where the shell rolls faster or slower.")
+    elif "stiction" in pair:
+        physics = ("A breakaway that fades with speed (stiction with its width fitted: a flat to roll off) brakes the "
+                   "start of a descent only; a loss that stays or grows with speed brakes it all the way: the ramp "
+                   "that reaches other speeds over the same length tells them apart.")
+    elif "rolling_resistance" in pair:
+        physics = ("A rolling resistance brakes by the same torque at every speed, a velocity loss by one that grows "
+                   "with speed: a steeper or shallower ramp moves the speeds they were matched at.")
+    elif choice.about == "parameter":
+        physics = "The parameter's two ends predict runs that part where its effect acts most."
+    else:
+        physics = ""
+    return text + ". " + physics if physics else text + "."
 
 
 def _inertia_vs_stiffness(src, inertia, spring, amp: float) -> str:

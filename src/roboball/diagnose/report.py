@@ -88,10 +88,19 @@ def details(d: Diagnosis, loc_base, loc_final) -> dict:
         "notes": d.prep.notes,
         "steer_settings": d.steer_settings,
         "steer_decision": d.steer_decision,
+        "model_setup": model_setup(d.model),
         # each equivalent explanation's whole model (F - e + u), for `roboball design`
         "alternatives": {e: [{"effect": a["effect"], "values": a.get("values", {}), "ci95": a.get("ci95_all", {})}
                              for a in alts] for e, alts in d.alternatives.items()},
     }
+
+
+def model_setup(model) -> dict:
+    """What rebuilds the diagnosis's reduced model beside its kind (for `roboball design`): a
+    ramp's angle and the baseline friction it was given (Table I where none)."""
+    if getattr(model, "kind", "") != "ramp":
+        return {}
+    return {"ramp_angle_deg": math.degrees(model.alpha), "friction": model.friction_params}
 
 
 def predictions_table(d: Diagnosis, drake_base: dict, drake_aug: dict):
