@@ -60,9 +60,6 @@ def markdown(js: dict) -> str:
         lines += [f"**Best experiment** ({verdict}): {_settings(best)}: separation {best['separation']:.3g} noise levels "
                   f"(fixed parameters {best['separation_fixed_params']:.3g}; {best['separation_vs_residual']:.2g} times "
                   f"the diagnosed model's residual), expected chi^2 gap {best['expected_chi2_gap']:.4g}.", ""]
-        if best["kind"] == "ramp" and best["refitted"]:
-            lines += ["Refitted on the new run alone: a ramp diagnosis holds one angle, so the runs cannot be fitted "
-                      "together, and a joint fit could absorb no more than this (a lower bound).", ""]
         single = c.get("best_single_release")
         if single and single is not best:
             lines += [f"Best single release of the user's length: {_settings(single)}: predicted separation "

@@ -12,16 +12,16 @@ its release for every candidate: where gravity alone asks more friction than the
 gives (mu N), it slides from the start, and the rate the recording holds is no longer the
 rolling the models describe.
 
-Refitted separation: each candidate B is fitted to the run candidate A predicts at that angle,
-alone (a parameter's two ends keep that parameter).  A joint fit of the user's runs and the new one cannot absorb more than B's best fit to the
-new one alone does (the rise of a joint residual is at least the new run's residual at B's best
-fit to it), so this separation is a lower bound of what diagnosing them together would show.  It
-is used because the reduced model holds one ramp angle per diagnosis: runs of two angles cannot be
-fitted together.
+Refitted separation (as roboball.design.refit for the other kinds): each candidate B is fitted to
+the user's runs together with the run candidate A predicts on that ramp, each run on its own ramp
+(roboball.reduced.ramp.RampModel.window_values), and to the user's runs alone; the rise of its
+residual per new sample, in noise levels, the smaller of both directions.  A parameter's two ends
+keep that parameter (freed, B would simply become A).
 """
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
@@ -130,24 +130,37 @@ def refit(src, choice, g: Grid, rows: list) -> list:
 
 
 def refit_gap(src, choice, g: Grid, w: int) -> float:
-    """The smaller over both directions of B's RMS residual, in noise levels, fitted alone to the
-    run A predicts on ramp w (the samples on the ramp)."""
+    """The smaller over both directions of the rise of B's residual when the run A predicts on
+    ramp w (its samples on the ramp) joins the user's runs, in noise levels per new sample."""
     mask = g.moving[w]
     n = max(int(mask.sum()), 1)
     best = math.inf
     for a in choice.candidates:
-        prep = _synthetic(src.prep, g.t)
-        prep.windows[0].y = g.central[a.label][w].copy()
+        prep = _joint(src, g, a.label, w)
+        user = {x.index: np.ones(x.n, bool) for x in src.prep.windows}
         for b in choice.candidates:
             if b is a:
                 continue
-            model = b.model("ramp", ramp_angle_deg=float(g.releases[w]))
+            model = b.model("ramp")
             engine = Engine(model, prep)
             # a parameter's two ends (the same effects) keep it: freed, B would simply become A
             free = [k for k in effect_keys(b.effects, model.held_params)
                     if not (a.effects == b.effects and a.values.get(k) != b.values.get(k))]
-            prob = Problem(effects=tuple(b.effects), values=dict(b.values), free=free, masks={0: mask})
-            engine.fit([prob], max_iter=MAX_ITER, rtol=RTOL, max_rejects=8)
-            best = min(best, math.sqrt(max(prob.rss, 0.0) / n) / src.noise)
+            probs = [Problem(effects=tuple(b.effects), values=dict(b.values), free=free, masks=m)
+                     for m in (dict(user), {**user, len(user): mask})]
+            engine.fit(probs, max_iter=MAX_ITER, rtol=RTOL, max_rejects=8)
+            best = min(best, math.sqrt(max(probs[1].rss - probs[0].rss, 0.0) / n) / src.noise)
     return best
 
+
+def _joint(src, g: Grid, truth: str, w: int) -> Prepared:
+    """The user's runs, then the run `truth` predicts on ramp w, a run of its own ramp."""
+    prep = src.prep
+    rec = prep.recording
+    rec = replace(rec, meta=dict(rec.meta, ramp_angle_deg=float(g.releases[w])))
+    w0 = prep.windows[0]
+    new = Window(index=len(prep.windows), t0=0.0, t=g.t.copy(), y=g.central[truth][w].copy(), q0=0.0,
+                 release=w0.release, start="release", smooth_s=w0.smooth_s, source=rec)
+    return Prepared(recording=prep.recording, kind=prep.kind, signal=prep.signal, unit=prep.unit,
+                    windows=list(prep.windows) + [new], noise=prep.noise, quantum=prep.quantum,
+                    sources=list(prep.sources))

@@ -81,8 +81,10 @@ def effect_term(model: ReducedModel, effects: dict) -> GeneralizedTerm | None:
     return GeneralizedTerm(law, name="diagnosed[" + "+".join(effects) + "]")
 
 
-def drake_spec(prep: Prepared, model: ReducedModel, values: dict, effects, dt: float | None = None) -> SimSpec:
-    """The Drake scenario of the baseline (effects=()) or the augmented model."""
+def drake_spec(prep: Prepared, model: ReducedModel, values: dict, effects, dt: float | None = None,
+               ramp_angle_deg: float | None = None) -> SimSpec:
+    """The Drake scenario of the baseline (effects=()) or the augmented model (a ramp run's on
+    `ramp_angle_deg`, default the recording's)."""
     kind = prep.kind
     dt = dt or DRAKE_DT[kind]
     chosen = effect_values(effects, values)
@@ -106,7 +108,8 @@ def drake_spec(prep: Prepared, model: ReducedModel, values: dict, effects, dt: f
     if kind == "shell_rock":
         return SimSpec(kind=kind, contact="point", friction={"steer": "none", "drive": "none"}, dt=dt,
                        pressure_kpa=prep.recording.pressure_kpa, extra_terms=extra)
-    return ramp_spec(prep.recording.pressure_kpa, prep.recording.ramp_angle_deg, extra, dt,
+    angle = prep.recording.ramp_angle_deg if ramp_angle_deg is None else ramp_angle_deg
+    return ramp_spec(prep.recording.pressure_kpa, angle, extra, dt,
                      friction_params=getattr(model, "friction_params", None))
 
 
@@ -131,12 +134,17 @@ def _level_before(prep: Prepared, window, column: str, t0: float) -> float:
 
 
 def simulate_windows(prep: Prepared, model: ReducedModel, values: dict, effects, dt: float | None = None) -> dict:
-    """Drake prediction at every window's samples, from the fitted release states."""
-    spec = drake_spec(prep, model, values, effects, dt)
+    """Drake prediction at every window's samples, from the fitted release states (a pooled
+    ramp run on its own ramp: one diagram per angle)."""
     rate = 1000.0
-    built = build(spec, sample_period=1.0 / rate)
+    diagrams = {}
     out = {}
     for w in prep.windows:
+        angle = prep.source_of(w).ramp_angle_deg if prep.kind == "ramp" else None
+        if angle not in diagrams:
+            spec = drake_spec(prep, model, values, effects, dt, ramp_angle_deg=angle)
+            diagrams[angle] = (spec, build(spec, sample_period=1.0 / rate))
+        spec, built = diagrams[angle]
         ts = float(values.get(f"ts@{w.index}", 0.0))
         duration = float(w.t[-1] - w.t0 - ts) + 0.05
         if prep.kind == "ramp":

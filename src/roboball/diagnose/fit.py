@@ -100,6 +100,8 @@ class Engine:
         # release states of coordinates the recording does not observe (a free pendulum's steer
         # joint under a shell log): fitted per release like q0, passed to the model by name
         self.hidden = tuple(model.hidden_release)
+        # each window's own experiment settings (a pooled ramp run's angle), passed per row
+        self.window_values = {w.index: model.window_values(w) for w in prep.windows}
         self.hidden_cache: dict = {}     # values -> the starts chosen per release (diagnose.hidden)
         for w in prep.windows:
             self.info[f"q0@{w.index}"] = (0.01, w.q0 - Q0_BOUND, w.q0 + Q0_BOUND)
@@ -172,6 +174,8 @@ class Engine:
         ts = np.fromiter((v.get(f"ts@{w}", 0.0) for v, w in items), float, B)
         for h in self.hidden:
             P[h.name] = np.fromiter((v.get(f"{h.name}@{w}", h.start) for v, w in items), float, B)
+        for key in self.model.window_keys:
+            P[key] = np.fromiter((self.window_values[w][key] for _, w in items), float, B)
         return P, q0, ts
 
     def _simulate(self, items, dt: float):

@@ -64,6 +64,9 @@ class ReducedModel:
     # BaseParams of release states of coordinates the recording does not show (fitted per
     # release, passed to simulate in P by name; roboball.reduced.shell_steer)
     hidden_release: tuple = ()
+    # settings of a window's own experiment the model takes per batch row (passed in P by name,
+    # from `window_values`; a ramp run's angle, roboball.reduced.ramp)
+    window_keys: tuple = ()
     # a shell release's steer joint: "locked" (the contract's baseline) or "free" (shell_steer)
     steer_joint: str = "locked"
     # rounds of the diagnosis's search run even when a round keeps nothing (roboball.diagnose.select)
@@ -77,6 +80,10 @@ class ReducedModel:
     # run the compiled loop (roboball.reduced.compiled) where the model has one; False: the
     # NumPy loop, its reference (tests compare the two)
     compiled: bool = True
+
+    def window_values(self, window) -> dict:
+        """The window's own settings ({key of `window_keys`: value})."""
+        return {}
 
     def hidden_starts(self) -> list:
         """Starting points ({name: value}) of the hidden release states' fits."""

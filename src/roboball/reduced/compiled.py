@@ -227,10 +227,12 @@ def _ramp_deriv(th, be, vs, w, wb, sliding, direction, r, k, mj, k_g, codes, par
 
 
 @cached_jit(parallel=True)
-def _run_ramp(n_steps, dt, k, mj, k_g, codes, par, Y, Yd):
-    """RampModel.simulate's loop, one row per thread, from rest; Y, Yd (B, n + 1)."""
+def _run_ramp(n_steps, dt, K, mj, k_g, codes, par, Y, Yd):
+    """RampModel.simulate's loop, one row per thread, from rest; K (B, 11) each row's constants
+    (ramp_equations.constants: a run's own ramp angle), Y, Yd (B, n + 1)."""
     h2 = 0.5 * dt
     for r in prange(Y.shape[0]):
+        k = (K[r, 0], K[r, 1], K[r, 2], K[r, 3], K[r, 4], K[r, 5], K[r, 6], K[r, 7], K[r, 8], K[r, 9], K[r, 10])
         th, be, vs, w, wb = 0.0, 0.0, 0.0, 0.0, 0.0
         sliding = False
         direction = 0.0
@@ -264,12 +266,13 @@ def _run_ramp(n_steps, dt, k, mj, k_g, codes, par, Y, Yd):
             Yd[r, step] = a1
 
 
-def ramp_run(model, P: dict, active: list, B: int, n_steps: int, dt: float):
+def ramp_run(model, P: dict, active: list, B: int, n_steps: int, dt: float, k: tuple):
     """roboball.reduced.ramp.RampModel.simulate compiled: (drive rate, its derivative), (n + 1, B)
-    each."""
+    each; `k` the rows' constants (RampModel.row_constants: floats, or (B,) arrays)."""
     codes, par = effect_arrays(model, P, active, B)
     Y, Yd = _outputs(B, n_steps)
-    _run_ramp(int(n_steps), float(dt), model.constants(), model.majd_args(), float(model.context["k_g"]),
+    K = np.ascontiguousarray(np.column_stack([np.broadcast_to(np.asarray(x, dtype=float), (B,)) for x in k]))
+    _run_ramp(int(n_steps), float(dt), K, model.majd_args(), float(model.context["k_g"]),
               codes, par, Y, Yd)
     return Y.T, Yd.T
 

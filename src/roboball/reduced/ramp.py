@@ -121,10 +121,11 @@ class RampModel(ReducedModel):
         of a step is the output's rate and the next step's first stage."""
         B = np.asarray(q0).shape[0]
         active = active_effects(P, self.candidates)
+        const = self.row_constants(P, B)
         if self.compiled:
             from roboball.reduced import compiled
-            return compiled.ramp_run(self, P, active, B, n_steps, dt)
-        deriv = self._equations(self.bind_effects(P, active) if active else None)
+            return compiled.ramp_run(self, P, active, B, n_steps, dt, const)
+        deriv = self._equations(self.bind_effects(P, active) if active else None, const)
         Y = np.empty((n_steps + 1, B))
         Yd = np.empty((n_steps + 1, B))
         th, be, vs, w, wb = (np.zeros(B) for _ in range(5))
@@ -134,7 +135,7 @@ class RampModel(ReducedModel):
         as1, a1, b1, f_req, normal = deriv(th, be, vs, w, wb, sliding, direction)
         Y[0], Yd[0] = w, a1
         for k in range(1, n_steps + 1):
-            sliding, direction, vs, w, changed = self._contact_mode(sliding, direction, f_req, normal, vs, w)
+            sliding, direction, vs, w, changed = self._contact_mode(sliding, direction, f_req, normal, vs, w, const)
             if changed:
                 as1, a1, b1, f_req, normal = deriv(th, be, vs, w, wb, sliding, direction)
             as2, a2, b2, _, _ = deriv(th + h2 * w, be + h2 * wb, vs + h2 * as1, w + h2 * a1, wb + h2 * b1,
@@ -152,15 +153,31 @@ class RampModel(ReducedModel):
         """The constants of roboball.reduced.ramp_equations (its `constants`)."""
         return eq.constants(self)
 
+    window_keys = ("ramp_angle_rad",)
+
+    def window_values(self, window) -> dict:
+        """A pooled run's own ramp angle (its recording's; the model's where it has none)."""
+        deg = getattr(getattr(window, "source", None), "ramp_angle_deg", None)
+        return {"ramp_angle_rad": math.radians(deg) if deg is not None else self.alpha}
+
+    def row_constants(self, P: dict, B: int) -> tuple:
+        """The constants of each batch row: the model's (floats) unless P gives rows their own
+        ramp angle (`ramp_angle_rad`, runs on several ramps diagnosed together), then a (B,)
+        array each."""
+        a = P.get("ramp_angle_rad")
+        if a is None or np.all(np.asarray(a) == self.alpha):
+            return self.constants()
+        K = np.array([eq.constants(self, x) for x in np.broadcast_to(np.asarray(a, dtype=float), (B,))])
+        return tuple(K[:, j].copy() for j in range(K.shape[1]))
+
     def majd_args(self) -> tuple:
         """The drive joint's Majd parameters (f_w, f_c, sigma, omega_c, n)."""
         return tuple(float(self.majd[p]) for p in ("f_w", "f_c", "sigma", "omega_c", "n"))
 
-    def _contact_mode(self, sliding, direction, f_req, normal, vs, w):
+    def _contact_mode(self, sliding, direction, f_req, normal, vs, w, k):
         """Contact mode for the next step: start sliding where rolling needs more than mu N;
         stick again where the slip velocity has reversed.  Returns (sliding, direction, vs, w,
         whether any member slides so that the step's first derivative must be re-evaluated)."""
-        k = self.constants()
         start = ~sliding & eq.exceeds_cone(f_req, normal, k, NP)
         if start.any():
             direction = np.where(start, np.sign(f_req), direction)
@@ -175,11 +192,11 @@ class RampModel(ReducedModel):
             sliding = sliding & ~stick
         return sliding, direction, vs, w, True
 
-    def _equations(self, extra):
+    def _equations(self, extra, k):
         """deriv(theta, beta, s', theta', beta', sliding, direction) -> (s'', theta'', beta'', the
         friction the rolling mode needs, the normal force) for the current contact mode of each
-        member; `extra(q, v, tau)` adds the effects' torques on the rolling coordinate."""
-        k = self.constants()
+        member, with the constants `k` (row_constants); `extra(q, v, tau)` adds the effects'
+        torques on the rolling coordinate."""
         mj = self.majd_args()
 
         def deriv(th, be, vs, w, wb, sliding, direction):

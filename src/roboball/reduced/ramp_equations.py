@@ -16,12 +16,14 @@ from __future__ import annotations
 import math
 
 
-def constants(model) -> tuple:
+def constants(model, alpha=None) -> tuple:
     """(M, m_p z_c, I_p + m_p z_c^2, M R^2 + I_s, M g sin(alpha), M g cos(alpha), m_p g z_c, R,
-    alpha, mu, I_s) of a RampModel, as floats."""
+    alpha, mu, I_s) of a RampModel, as floats; on the ramp of angle `alpha` (rad) if given, else
+    the model's."""
     M = model.m_s + model.m_p
     mz = model.m_p * model.z_c
-    R, a, g = model.radius, model.alpha, model.g
+    R, g = model.radius, model.g
+    a = model.alpha if alpha is None else float(alpha)
     return (float(M), float(mz), float(model.i_p + model.m_p * model.z_c ** 2),
             float(M * R * R + model.i_s), float(M * g * math.sin(a)), float(M * g * math.cos(a)),
             float(model.m_p * g * model.z_c), float(R), float(a), float(model.mu), float(model.i_s))
