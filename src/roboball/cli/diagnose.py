@@ -3,9 +3,10 @@
 
 Reads one recording (or one of the authors' native logs), diagnoses it against the baseline
 of its kind and writes DIR/diagnosis.json, DIR/report.md (+ figures) and DIR/details.json.
-Several recordings of one experiment (same kind, pressure, ramp angle) are diagnosed together:
-each of their releases is a release of the pooled fit, and held-out validation leaves one out
-(for ramp runs, which hold one descent each, a whole run).  --friction-steer/--friction-drive
+Several recordings of one experiment (same kind and pressure; ramp runs may be on ramps of
+different angles, each simulated on its own) are diagnosed together: each of their releases is a
+release of the pooled fit, and held-out validation leaves one out (for ramp runs, which hold one
+descent each, a whole run).  --friction-steer/--friction-drive
 replace the ramp baseline's Table I friction by fitted Majd parameters.
 Exit 0 when a diagnosis was made, whatever it found; a one-line error and a non-zero exit on
 bad input (wrong columns, unknown kind, empty file: roboball.ingest.recording's validation).
@@ -172,7 +173,7 @@ def _register(sub):
     p = sub.add_parser("diagnose", help="find the physics a baseline model leaves out of a recording")
     p.add_argument("recording", nargs="+",
                    help="recording CSV (with its JSON sidecar) or an authors' native log; several recordings of "
-                        "one experiment (same kind, pressure, ramp angle) are diagnosed together")
+                        "one experiment (same kind and pressure; ramps of any angle) are diagnosed together")
     p.add_argument("--out", required=True, help="output folder (diagnosis.json, report.md, figures)")
     p.add_argument("--kind", type=_kind, default=None, help="experiment kind (default: the sidecar's)")
     p.add_argument("--pressure-kpa", type=_pressure, default=None, metavar="KPA",
