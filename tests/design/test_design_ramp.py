@@ -89,3 +89,12 @@ def test_a_parameters_two_ends_refitted_keep_that_parameter(tmp_path):
 def test_a_ramp_diagnosis_without_its_setup_gets_a_one_line_error(tmp_path):
     with pytest.raises(RoboballError, match="model_setup.*rerun the diagnosis"):
         read_source(_diagnosis(tmp_path, setup=False))
+
+
+def test_the_command_names_the_ramp(tmp_path, capsys):
+    from roboball.cli.main import main
+
+    folder = _diagnosis(tmp_path)
+    assert main(["design", str(folder), "--out", str(tmp_path / "out")]) == 0
+    line = capsys.readouterr().out.splitlines()[0]
+    assert line.startswith("stiction.tau_s within [1.5, 7.5]: a descent on a ramp of ") and "settles it" in line, line
