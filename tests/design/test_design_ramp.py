@@ -53,6 +53,7 @@ def test_a_shallower_ramp_pins_a_breakaway_better_than_the_users(tmp_path):
     assert choice["about"] == "parameter" and choice["choice"].startswith("stiction.tau_s")
     best, user = choice["best"], choice["user_like"]
     assert user["ramp_angle_deg"] == 16.0 and user["users_angle"] and user["refitted"]
+    assert best["pressure_kpa"] == user["pressure_kpa"] == 10.3          # not varied: the user's
     assert best["refitted"] and best["settles"], best
     assert best["ramp_angle_deg"] < 16.0, best
     assert best["separation"] > 2.5 * user["separation"], (best, user)

@@ -107,6 +107,7 @@ def experiments(src, choice, g: Grid) -> list:
         sep = (gap / n) ** 0.5
         rows.append({"kind": "ramp", "ramp_angle_deg": float(g.releases[w]), "users_angle": bool(g.releases[w] == round(user, 6)),
                      "recording_s": round(float(g.t[n - 1]), 3), "sample_interval_s": round(dt, 6),
+                     "pressure_kpa": src.prep.recording.pressure_kpa,
                      "choice": choice.name, "candidates": [c.label for c in choice.candidates],
                      "closest_pair": list(sc.pair[0][w]), "separation": round(sep, 4), "refitted": False,
                      "separation_predicted": round(sep, 4), "separation_fixed_params": round(rms / src.noise, 4),

@@ -90,7 +90,7 @@ def _entry(src, choice, g: Grid, sc: Scores, i: int, combo, rest: float, dt: flo
     entry = {"kind": src.kind, "release_rad": [round(r, 4) for r in rel],
              "release_from_rest_rad": [round(r - rest, 4) for r in rel],
              "settle_s": round(float(sc.durations[i]), 3), "recording_s": round(len(combo) * float(sc.durations[i]), 3),
-             "sample_interval_s": round(dt, 6)}
+             "sample_interval_s": round(dt, 6), "pressure_kpa": src.prep.recording.pressure_kpa}
     if src.kind == "shell_rock":
         entry["steer_joint"] = g.steer_joint
     rms = (sq / n) ** 0.5
