@@ -99,3 +99,16 @@ def test_the_command_names_the_ramp(tmp_path, capsys):
     assert main(["design", str(folder), "--out", str(tmp_path / "out")]) == 0
     line = capsys.readouterr().out.splitlines()[0]
     assert line.startswith("stiction.tau_s within [1.5, 7.5]: a descent on a ramp of ") and "settles it" in line, line
+
+
+def test_a_best_ramp_at_the_end_of_those_considered_is_said_to_be(tmp_path):
+    """On the campaign's runs a loss law's choice comes out best on the steepest ramp considered:
+    the why says that a steeper one may part the candidates further."""
+    from roboball.design.why import why
+
+    src = read_source(_diagnosis(tmp_path))
+    (choice,) = src.choices
+    best = {"closest_pair": [c.label for c in choice.candidates], "ramp_angle_deg": float(max(ramp.ANGLES_DEG)),
+            "rms_difference_rad_s": 0.1, "separation": 5.0, "refitted": True}
+    assert "the steepest ramp considered" in why(src, choice, best, None)
+    assert "considered" not in why(src, choice, dict(best, ramp_angle_deg=12.0), None)

@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 
+from roboball.design.ramp import ANGLES_DEG
 from roboball.design.rank import same_experiment
 from roboball.reduced.models import model_for
 
@@ -62,6 +63,10 @@ def _ramp_why(src, choice, best: dict, user: dict | None) -> str:
             + (", refitted" if best["refitted"] else ", the parameters' uncertainty included") + ")")
     if user is not None and user is not best:
         text += f", where a run on the user's {user['ramp_angle_deg']:g} deg ramp separates them by {user['separation']:.3g}"
+    if best["ramp_angle_deg"] in (min(ANGLES_DEG), max(ANGLES_DEG)):
+        edge = "steepest" if best["ramp_angle_deg"] == max(ANGLES_DEG) else "shallowest"
+        text += (f"; the {edge} ramp considered: one beyond it may part them further, if the robot rolls there as "
+                 "the model does")
     pair = {a, b}
     if pair == {"viscous_damping", "quadratic_drag"}:
         physics = ("A viscous loss brakes in proportion to the speed, a quadratic drag as its square: fitted to one "
