@@ -32,6 +32,12 @@ alternating between them case by case (so that always naming one of them scores 
   setting's held-out RMS 1.9-33 times the chosen one's), and smaller, shorter or noisier ones
   (--first-release, --first-s, --noise) were chosen wrongly rather than tied (docs/diagnosis.md).
 
+* `ramp_loss`: ramp runs (the robot facts' 16 deg) that lose energy by a small quadratic drag c2
+  (0.015-0.03 N m s^2/rad^2, the campaign's diagnosed drag is 0.018-0.021) or by a viscous
+  damping c = 5 c2 (the same torque at 5 rad/s, a descent's middle speed); two runs diagnosed
+  together first.  The design's experiment is a run on another ramp (roboball.design.ramp), the
+  control a run on a ramp drawn at random from the angles the design considered.
+
 For each case: the test bed makes the first recording (rigid point contact, no shell terms, the
 stand's viscous joint: the baselines' structure, as in benchmarks/diagnose_blind.py);
 `roboball diagnose` reads only its CSV and sidecar; `roboball design` ranks the next recordings
@@ -66,10 +72,13 @@ from pathlib import Path
 
 import numpy as np
 
-FREE_S = {"slow_stand": 8.0, "shell_loss": 2.0, "steer_setting": 8.0}   # s the first release is left to swing
+FREE_S = {"slow_stand": 8.0, "shell_loss": 2.0, "steer_setting": 8.0, "ramp_loss": 0.0}   # s the first release is left to swing
 PAIRS = {"slow_stand": ("added_inertia", "linear_stiffness"), "shell_loss": ("viscous_damping", "quadratic_drag"),
-         "steer_setting": ("locked", "free")}
-KIND = {"slow_stand": "steer_stand", "shell_loss": "shell_rock", "steer_setting": "shell_rock"}
+         "steer_setting": ("locked", "free"), "ramp_loss": ("viscous_damping", "quadratic_drag")}
+KIND = {"slow_stand": "steer_stand", "shell_loss": "shell_rock", "steer_setting": "shell_rock", "ramp_loss": "ramp"}
+RAMP_C2 = (0.005, 0.015)        # N m s^2/rad^2, ramp_loss: below the campaign's diagnosed 0.018-0.021
+RAMP_SPEED = 5.0                # rad/s: the viscous c matched to a drag, c = c2 x this (a descent's middle speed)
+RAMP_FIRST_RUNS = 2             # ramp_loss: runs on the user's ramp diagnosed together first
 FIRST_RELEASE = {"slow_stand": (0.15, 0.3), "shell_loss": (0.1, 0.2), "steer_setting": (0.2, 0.35)}  # rad from rest
 DELTA_I = (0.03, 0.15)          # kg m^2
 BASE_VISCOUS = (0.05, 0.2)      # N m s/rad, the stand's joint (its baseline fits it)
@@ -91,12 +100,18 @@ def draw_case(tie: str, i: int, seed: int, attempt: int) -> dict:
 
     rng = np.random.default_rng([seed, list(PAIRS).index(tie), i, attempt])
     truth = PAIRS[tie][i % 2]
-    amp = float(rng.uniform(*FIRST_RELEASE[tie])) * (-1.0 if rng.random() < 0.5 else 1.0)
+    amp = float(rng.uniform(*FIRST_RELEASE.get(tie, (0.0, 0.0)))) * (-1.0 if rng.random() < 0.5 else 1.0)
     case = {"id": f"{tie}-{i:02d}", "tie": tie, "index": i, "draw_seed": seed, "attempt": attempt,
             "kind": KIND[tie], "truth": truth, "release": round(amp, 4), "seed": int(rng.integers(2 ** 31)),
             "steer_joint": "locked"}
     if tie in NOISE:
         case["angle_noise_rad"] = NOISE[tie]
+    if tie == "ramp_loss":
+        c2 = float(rng.uniform(*RAMP_C2))
+        case["pressure_kpa"] = float(rng.choice(PRESSURES))
+        case["effects"] = ({"quadratic_drag": {"c2": round(c2, 5)}} if truth == "quadratic_drag" else
+                           {"viscous_damping": {"c": round(c2 * RAMP_SPEED, 5)}})
+        return case
     m = model_for(KIND[tie])
     if tie == "slow_stand":
         d = float(rng.uniform(*DELTA_I))
@@ -183,6 +198,36 @@ def record(case: dict, from_rest: list, free_s: float, folder: Path, name: str, 
     return path
 
 
+def ramp_run(case: dict, angle_deg: float | None, folder: Path, name: str, stream: int) -> Path:
+    """One descent on a ramp of `angle_deg` (the robot facts' where None) with the case's hidden
+    loss, as blind ramp cases are made (benchmarks/diagnose_blind.py)."""
+    import copy
+
+    from roboball.config import RobotFacts
+    from roboball.ingest.recording import write_recording
+    from roboball.testbed.campaign import ramp_recording
+    from roboball.testbed.effects import conceal
+    from roboball.testbed.physics import load_truth, true_robot
+    from roboball.testbed.sensors import measure
+
+    truth = load_truth()
+    rng = np.random.default_rng([case["seed"], stream])
+    robot = true_robot(truth, perturbed=False)
+    if angle_deg is not None:
+        data = copy.deepcopy(robot.data)
+        data["experiments"]["ramp_angle_deg"] = float(angle_deg)
+        robot = RobotFacts(data, source=f"{robot.source}, a ramp of {angle_deg:g} deg")
+    terms, systems, robot = conceal("ramp", case["effects"], robot)
+    dense, exit_s, _ = ramp_recording(case["pressure_kpa"], truth, rng, extras=(), extra_terms=terms,
+                                      extra_systems=systems, robot=robot)
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / f"{name}.csv"
+    meta = {"kind": "ramp", "pressure_kpa": case["pressure_kpa"], "ramp_angle_deg": robot.ramp_angle_deg,
+            "ramp_exit_s": exit_s}
+    write_recording(path, measure(dense, truth["sensors"], rng), meta)
+    return path
+
+
 def diagnose(paths: list, out: Path) -> tuple[dict, dict]:
     """`roboball diagnose` on the recordings (its command, in this process; no Drake report
     runs: the verdict is the reduced models'); (diagnosis.json, details.json)."""
@@ -248,6 +293,8 @@ def designed(case: dict, folder: Path) -> tuple[dict, list]:
     if changed:
         best = next(r for r in js["experiments"] if r["choice"] == names[0] and r.get("steer_joint") == user)
     g = grids[names[0]][0]
+    if case["tie"] == "ramp_loss":          # the ramp's angle, and the feasible ones for the control
+        return dict(best, clamp_changed=False), [float(a) for a, ok in zip(g.releases, g.feasible) if ok]
     rest = best["release_rad"][0] - best["release_from_rest_rad"][0]
     feasible = [round(float(r - rest), 4) for r, ok in zip(g.releases, g.feasible) if ok]
     return dict(best, clamp_changed=changed), feasible
@@ -260,9 +307,14 @@ def run_case(case: dict, keep: str | None = None) -> dict:
         untied = []
         for attempt in range(ATTEMPTS):      # redrawn until the first recording ties
             case = draw_case(case["tie"], case["index"], case["draw_seed"], attempt)
-            first = record(case, [case["release"]], FREE_S[case["tie"]], root / f"draw{attempt}", "first", 1)
+            if case["tie"] == "ramp_loss":
+                firsts = [ramp_run(case, None, root / f"draw{attempt}", f"first{j}", 10 + j)
+                          for j in range(RAMP_FIRST_RUNS)]
+            else:
+                firsts = [record(case, [case["release"]], FREE_S[case["tie"]], root / f"draw{attempt}", "first", 1)]
+            first = firsts[0]
             out1 = root / f"draw{attempt}" / "first_diagnosis"
-            v1 = judged(case, [first], out1)
+            v1 = judged(case, firsts, out1)
             if v1["tied"]:
                 break
             untied.append({"effects": case["effects"], "release": case["release"], "first": v1})
@@ -270,14 +322,17 @@ def run_case(case: dict, keep: str | None = None) -> dict:
         if v1["tied"]:
             best, feasible = designed(case, out1)
             rng = np.random.default_rng([case["seed"], 3])
-            k = len(best["release_from_rest_rad"])
+            ramp = case["tie"] == "ramp_loss"
+            k = 1 if ramp else len(best["release_from_rest_rad"])
             control = [float(x) for x in rng.choice(feasible, size=k, replace=False)]
-            arms = {"designed": best["release_from_rest_rad"], "random": control}
-            result.update(best={x: best[x] for x in ("release_from_rest_rad", "settle_s", "separation", "refitted",
-                                                     "clamp_changed")}, random_release=control)
+            arms = {"designed": [best["ramp_angle_deg"]] if ramp else best["release_from_rest_rad"], "random": control}
+            keys = ("ramp_angle_deg", "separation", "refitted") if ramp else (
+                "release_from_rest_rad", "settle_s", "separation", "refitted", "clamp_changed")
+            result.update(best={x: best[x] for x in keys}, random_release=control)
             for stream, (arm, rel) in enumerate(arms.items(), start=2):
-                second = record(case, rel, best["settle_s"], first.parent, arm, stream)
-                result[arm] = judged(case, [first, second], first.parent / f"{arm}_diagnosis")
+                second = (ramp_run(case, rel[0], first.parent, arm, stream) if ramp else
+                          record(case, rel, best["settle_s"], first.parent, arm, stream))
+                result[arm] = judged(case, [*firsts, second], first.parent / f"{arm}_diagnosis")
         if keep:
             import shutil
             shutil.copytree(root, Path(keep) / case["id"], dirs_exist_ok=True)
@@ -310,7 +365,7 @@ def table(results: list) -> str:
         med = f"{statistics.median(seps):.3g}" if seps else "-"
         lines.append(f"{tie} | {len(rs)} | {n} | {score('first')} | {score('designed')} | {score('random')} | "
                      f"{fisher_p(decided('designed'), decided('random'), n):.2g} | {med} | "
-                     f"{sum(r['best']['clamp_changed'] for r in tied if 'best' in r)} | {failed}")
+                     f"{sum(r['best'].get('clamp_changed', False) for r in tied if 'best' in r)} | {failed}")
     return "\n".join(lines)
 
 
@@ -344,7 +399,9 @@ def _line(r: dict) -> str:
     text = f"{r['id']:<17} truth {r['truth']:<16} first: {r['first']['picked']} (tied {r['first']['tied']})"
     if r["first"]["tied"] and "best" in r:
         b = r["best"]
-        text += (f"; designed {b['release_from_rest_rad']} x {b['settle_s']} s (sep {b['separation']:.3g}) -> "
+        setting = (f"{b['ramp_angle_deg']:g} deg" if "ramp_angle_deg" in b else
+                   f"{b['release_from_rest_rad']} x {b['settle_s']} s")
+        text += (f"; designed {setting} (sep {b['separation']:.3g}) -> "
                  f"{r['designed']['picked']} (decided {r['designed']['decided']}); random {r['random_release']} -> "
                  f"{r['random']['picked']} (decided {r['random']['decided']})")
     return text + f" ({r['seconds']:.0f} s)"
