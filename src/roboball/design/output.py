@@ -110,7 +110,7 @@ def _figure(src, js: dict, grids: dict, path) -> str:
                 continue
             _panel(top, bottom, src, c, g, best, j)
     fig.tight_layout()
-    savefig_atomic(fig, path, dpi=110)
+    savefig_atomic(fig, path, dpi=110, bbox_inches="tight")     # the legends below the panels included
     plt.close(fig)
     return path.name
 
@@ -118,7 +118,9 @@ def _figure(src, js: dict, grids: dict, path) -> str:
 def _panel(top, bottom, src, c: dict, g, best: dict, j: int) -> None:
     ramp = best["kind"] == "ramp"
     w = int(np.argmin(np.abs(g.releases - (best["ramp_angle_deg"] if ramp else best["release_rad"][j]))))
-    keep = g.t <= (g.t[-1] if ramp else best["settle_s"]) + 1e-9
+    # a ramp's run is shown up to a little past where the first candidate leaves the ramp: beyond
+    # it the models roll on, off any ramp, and would set the axes' scale
+    keep = g.t <= (min(best["recording_s"] * 1.15 + 0.1, g.t[-1]) if ramp else best["settle_s"]) + 1e-9
     t = g.t[keep]
     labels = list(g.central)
     ref = g.central[labels[0]][w][keep]
@@ -148,7 +150,8 @@ def _panel(top, bottom, src, c: dict, g, best: dict, j: int) -> None:
         setting = f"release at {best['release_from_rest_rad'][j]:+.2f} rad from rest{joint}"
     top.set_title(f"{c['choice']}\n{setting}: separation {best['separation']:.3g} noise levels", fontsize=10)
     top.set_ylabel(f"predicted {sig} ({unit})")
-    top.legend(fontsize=8, loc="upper right", title="candidate (band: 2 sd of parameter draws)", title_fontsize=7)
+    # a descent's rate rises from the lower left: its upper left is free
+    top.legend(fontsize=8, loc="upper left" if ramp else "upper right", title="candidate (band: 2 sd of parameter draws)", title_fontsize=7)
     bottom.set_xlabel("time since release (s)")
     bottom.set_ylabel(f"difference ({unit})")
     # below the panel, not over it: the differences fill the panel's whole height
