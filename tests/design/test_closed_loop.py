@@ -31,6 +31,14 @@ def test_the_draw_is_reproducible_and_alternates_the_truth():
     assert m.k_g + (-m.k_g * d / (m.inertia + d)) == pytest.approx(m.k_g * m.inertia / (m.inertia + d))
 
 
+def test_a_ramp_loss_case_hides_a_drag_or_the_viscous_loss_of_its_torque_at_a_descents_middle_speed():
+    v, q = loop.draw_case("ramp_loss", 0, 47, 0), loop.draw_case("ramp_loss", 1, 47, 0)
+    assert v["kind"] == q["kind"] == "ramp" and v["pressure_kpa"] in loop.PRESSURES
+    c2 = q["effects"]["quadratic_drag"]["c2"]
+    assert loop.RAMP_C2[0] <= c2 <= loop.RAMP_C2[1]
+    assert loop.RAMP_C2[0] * loop.RAMP_SPEED <= v["effects"]["viscous_damping"]["c"] <= loop.RAMP_C2[1] * loop.RAMP_SPEED
+
+
 def test_fisher_p_is_one_sided():
     assert loop.fisher_p(20, 17, 20) == pytest.approx(0.1154, abs=1e-3)
     assert loop.fisher_p(10, 5, 10) < 0.05
