@@ -51,3 +51,14 @@ def test_the_designed_recording_decides_a_tie(tie):
     r = loop.run_case(loop.draw_case(tie, 0, 47, 0))
     assert r["first"]["tied"], r["first"]            # the first recording ties (else nothing to test)
     assert r["designed"]["picked"] == r["truth"] and r["designed"]["decided"], r["designed"]
+
+
+@pytest.mark.slow
+def test_a_run_on_the_designed_ramp_decides_a_ramp_loss_tie():
+    """Case 4 (a viscous loss; two 16 deg runs tie it with a drag): the design names another ramp,
+    the test bed runs it, and the three runs diagnosed together, each on its own ramp, name the
+    viscous loss alone."""
+    r = loop.run_case(loop.draw_case("ramp_loss", 4, 47, 0))
+    assert r["first"]["tied"], r["first"]
+    assert r["best"]["ramp_angle_deg"] != 16.0, r["best"]
+    assert r["designed"]["picked"] == r["truth"] == "viscous_damping" and r["designed"]["decided"], r["designed"]
