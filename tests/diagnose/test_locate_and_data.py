@@ -431,3 +431,25 @@ def test_a_shell_creeping_to_rest_in_steps_keeps_the_hand_s_hold_as_its_release(
     assert rel[0].t_release_s == pytest.approx(t[held[-1]], abs=0.3)
     assert rel[0].t_end_s > t[-1] - 0.1
     assert rel[0].y_rest == pytest.approx(sat, abs=2e-3)
+
+
+def test_a_ramp_run_without_ramp_exit_s_ends_where_its_rate_falls_onto_the_floor(tmp_path):
+    """A campaign run renamed with its sidecar's ramp_exit_s left out: the window ends within 20 ms
+    of the exit the field gave, and the notes say the exit was read from the rate."""
+    import json
+    import shutil
+
+    from conftest import REPO
+    from roboball.diagnose.data import read
+
+    src = REPO / "raw_data" / "ramp" / "ramp_20.7kpa_r1.csv"
+    meta = json.loads(src.with_suffix(".json").read_text())
+    exit_s = meta.pop("ramp_exit_s")
+    shutil.copy(src, tmp_path / "descent.csv")
+    (tmp_path / "descent.json").write_text(json.dumps(meta))
+    prep = prepare(read(tmp_path / "descent.csv"))
+    (w,) = prep.windows
+    assert abs(w.t[-1] - exit_s) < 0.02 and w.end_reason == "ramp exit read from the rate (no ramp_exit_s)"
+    assert any("left the ramp at" in n for n in prep.notes)
+    with_field = prepare(read(src)).windows[0]
+    assert with_field.end_reason == "ramp exit" and abs(with_field.t[-1] - exit_s) < 0.011

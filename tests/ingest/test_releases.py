@@ -593,3 +593,37 @@ def test_a_hand_s_hold_after_a_grab_keeps_its_release_through_its_tremor(tmp_pat
     from roboball.diagnose.data import read
     rel = recording_releases(read(diagnose_blind.make_recording(case, tmp_path)))
     assert [round(r.t_release_s, 1) for r in rel] == [2.8, 12.8, 23.0]
+
+
+def test_without_ramp_exit_s_the_exit_is_read_from_the_rates_fall_onto_the_floor():
+    """Rolling off the ramp's end the shell meets the floor: its rate drops at once and falls on.
+    The exit is the highest rate before the drop; a descent that levels off on the ramp, or whose
+    rate wobbles and comes back, shows no exit."""
+    rng = np.random.default_rng(3)
+    t = np.sort(rng.uniform(0, 4, 600))
+    t_exit = 3.0
+    rise = np.where(t > 1.0, 2.5 * (t - 1.0) + 0.3 * (t - 1.0) ** 2, 0.0)
+    at_exit = 2.5 * 2.0 + 0.3 * 4.0
+    floor = at_exit * (0.8 - 0.15 * (t - t_exit))                  # the impact's 20% drop, then rolling loss
+    y = np.where(t < t_exit, rise, floor) + rng.normal(0, 0.01, t.size)
+    (r,) = find_releases(t, y, "ramp")
+    assert r.t_end_s == pytest.approx(t_exit, abs=0.03)
+    (r,) = find_releases(t, y, "ramp", ramp_exit_s=2.5)            # the sidecar's word wins
+    assert r.t_end_s == 2.5
+    level = np.where(t > 1.0, 5.0 * (1 - np.exp(-(t - 1.0) / 0.5)), 0.0) + rng.normal(0, 0.01, t.size)
+    assert find_releases(t, level, "ramp")[0].t_end_s == t[-1]
+    wobble = rise * (1 - 0.15 * np.exp(-((t - 2.5) / 0.05) ** 2)) + rng.normal(0, 0.01, t.size)
+    assert find_releases(t, wobble, "ramp")[0].t_end_s == t[-1]
+
+
+def test_the_exit_read_from_the_rate_is_the_campaigns_within_20_ms():
+    import json
+
+    from conftest import REPO
+    from roboball.ingest.recording import read_recording
+
+    for path in sorted((REPO / "raw_data" / "ramp").glob("ramp_*.csv")):
+        rec = read_recording(path)
+        (r,) = find_releases(rec.time, rec.signal("drive_rate_rad_s"), "ramp")
+        exit_s = json.loads(path.with_suffix(".json").read_text())["ramp_exit_s"]
+        assert abs(r.t_end_s - exit_s) < 0.02, (path.name, r.t_end_s, exit_s)

@@ -14,7 +14,8 @@ responses after each release that the baseline must explain.  `prepare` finds th
   it.  A body still swinging when a hand takes it is cut at its last turning point: the hand
   may have grabbed anywhere in the half swing after it;
 * ramp: from the start of motion to `ramp_exit_s` (the paper uses only data before the robot
-  leaves the ramp).  A soft shell that is not resting in its contact at the release (dropped,
+  leaves the ramp; without the field, to the exit read from the rate's fall onto the floor,
+  roboball.ingest.releases.ramp.exit_from_rate, else to the end of the record).  A soft shell that is not resting in its contact at the release (dropped,
   or pushed) bounces on the ground at ~5 Hz, and the drive rate carries that bounce: no effect
   of the vocabulary models it (and no rigid baseline can).  Before the test bed started its
   runs settled in the contact (roboball.sim.scenarios.settle_on_ground) it was 90% of the
@@ -289,6 +290,21 @@ def smooth_after(t: np.ndarray, y: np.ndarray, t0: float, half_width: float) -> 
     return apply_boxcar(boxcar_bounds(np.asarray(t, float), t0, half_width), y)
 
 
+def _ramp_end(rec: Recording, rel: Release, t_last: float, notes: list) -> tuple[float, str]:
+    """A ramp run's window end and why: the sidecar's ramp_exit_s, else the exit the release
+    finder read from the rate's fall onto the floor, else the end of the record."""
+    t_end = rel.t_end_s
+    if rec.ramp_exit_s is not None:
+        return t_end, "ramp exit"
+    if t_end < t_last:
+        notes.append(f"the recording gives no ramp_exit_s: the robot left the ramp at {t_end:.3f} s, where the "
+                     "rate drops onto the floor (roboball.ingest.releases.ramp.exit_from_rate)")
+        return t_end, "ramp exit read from the rate (no ramp_exit_s)"
+    notes.append("the recording gives no ramp_exit_s and its rate shows no fall onto the floor: fitted to the end "
+                 "of the record")
+    return t_end, "end of record (no ramp_exit_s)"
+
+
 def prepare(rec: Recording) -> Prepared:
     """Fit windows of every release in `rec` (normalised first).  A kind the diagnosis has no
     baseline for yet (roboball.kinds.NOT_YET) is a one-line RoboballError naming the file."""
@@ -318,10 +334,7 @@ def prepare(rec: Recording) -> Prepared:
         pass
     for i, rel in enumerate(releases):
         if kind == "ramp":
-            t_end = rel.t_end_s
-            reason = "ramp exit" if rec.ramp_exit_s is not None else "end of record (no ramp_exit_s)"
-            if rec.ramp_exit_s is None:
-                notes.append("the recording gives no ramp_exit_s: fitted to the end of the record")
+            t_end, reason = _ramp_end(rec, rel, float(t[-1]), notes)
         else:
             t_stop = releases[i + 1].held_from_s if i + 1 < len(releases) else float(t[-1])
             t_end, reason = _end_of_free_response(t, y, rel, t_stop, noise, quantum)
