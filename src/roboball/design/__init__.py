@@ -7,8 +7,8 @@ For each undecided choice of a diagnosis (an effect and its listed alternatives,
 setting of a shell release, a poorly pinned parameter: roboball.design.inputs), every candidate
 is simulated by the diagnosis's own reduced models and engine over the experiments the rig can
 run for that kind (roboball.design.experiments: release angle, two releases in one recording, a
-longer settle, the shell's steer clamp; roboball.design.ramp: the ramp's angle), with its parameters' uncertainty carried through, and
-the experiments are ranked by how clearly the candidates would differ in a recording like the
+longer settle, the shell's steer clamp; roboball.design.ramp: the ramp's angle), with its
+parameters' uncertainty carried through, and the experiments are ranked by how clearly the candidates would differ in a recording like the
 user's (roboball.design.rank: the expected chi^2 gap against the log's own noise, and the
 separation in noise levels).  roboball.design.output writes design.json, design.md and the
 figure; the command is roboball.cli.design.

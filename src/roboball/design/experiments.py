@@ -43,7 +43,8 @@ class Grid:
     """Every candidate's predictions for one steer setting: releases (absolute, rad) x samples."""
 
     steer_joint: str                # shell_rock: locked / free / "as recorded"; "" elsewhere
-    releases: np.ndarray            # (W,) rad, absolute (the recording's signal at the release); a ramp's angles (deg)
+    # (W,) rad, absolute (the recording's signal at the release); on a ramp, its angles (deg)
+    releases: np.ndarray
     t: np.ndarray                   # (N,) s since the release
     central: dict                   # candidate label -> (W, N) predicted signal at its fitted values
     var: dict                       # candidate label -> (W, N) variance over the parameter draws

@@ -25,7 +25,7 @@ def plan(src, log=None) -> tuple[dict, dict]:
     """(design.json content, {choice name: the best experiment's Grid})."""
     t0 = time.perf_counter()
     out = {"diagnosis": str(src.folder), "kind": src.kind, "recording": str(src.details["recording"]),
-           "unit": src.prep.unit, f"noise_{_u(src)}": src.noise, f"residual_{_u(src)}": src.residual,
+           "unit": src.prep.unit, f"noise_{src.prep.unit_key}": src.noise, f"residual_{src.prep.unit_key}": src.residual,
            "settles_at_separation": SETTLES,
            "choices": [], "experiments": []}
     grids = {}
@@ -119,11 +119,6 @@ def _user_like(src, rows: list) -> dict | None:
     q_user = float(src.prep.windows[0].release.y_release)    # the hand's release, not the first turning point
     same = [r for r in singles if r["settle_s"] == settle and r.get("steer_joint") in (None, "", _user_joint(src))]
     return min(same or singles, key=lambda r: abs(r["release_rad"][0] - q_user))
-
-
-def _u(src) -> str:
-    """The signal's unit in a key ("rad", "rad_s")."""
-    return src.prep.unit.replace("/", "_")
 
 
 def _user_joint(src) -> str:

@@ -81,11 +81,13 @@ def grid(src, choice) -> Grid:
     feasible = np.ones(W, bool)
     on_ramp = np.ones((W, N), bool)
     for i, a in enumerate(degs):
+        # the release's rolling asks gravity's friction alone: the same for every candidate
+        feasible[i] = rolls_off(choice.candidates[0].model("ramp", ramp_angle_deg=a))
         for cand in choice.candidates:
             model = cand.model("ramp", ramp_angle_deg=a)
             y, v, _ = predict(cand, "ramp", synth, None, np.random.default_rng(SEED), model=model)
             central[cand.label][i], var[cand.label][i] = y[0], v[0]
-            feasible[i] &= rolls_off(model) and bool(np.all(np.isfinite(y[0])))
+            feasible[i] &= bool(np.all(np.isfinite(y[0])))
             rolled = np.concatenate([[0.0], np.cumsum(0.5 * (y[0][1:] + y[0][:-1]) * np.diff(t))])
             on_ramp[i] &= rolled <= length
     # a sample counts while every candidate is still on the ramp (the first to leave ends the run)
@@ -99,7 +101,7 @@ def experiments(src, choice, g: Grid) -> list:
     dt, _ = user_timing(src.prep)
     sc = scores(g, src.noise, float(g.t[-1]), factors=(1.0,))
     user = float(src.setup["ramp_angle_deg"])
-    unit = src.prep.unit.replace("/", "_")
+    unit = src.prep.unit_key
     rows = []
     for w in np.nonzero(g.feasible)[0]:
         gap, sq, n = float(sc.gap[0, w]), float(sc.sq[0, w]), int(sc.n[0, w])

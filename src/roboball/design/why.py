@@ -57,7 +57,7 @@ def _physics(src, choice, best: dict) -> str:
 def _ramp_why(src, choice, best: dict, user: dict | None) -> str:
     a, b = best["closest_pair"]
     unit = src.prep.unit
-    diff = best[f"rms_difference_{unit.replace('/', '_')}"]
+    diff = best[f"rms_difference_{src.prep.unit_key}"]
     text = (f"on a ramp of {best['ramp_angle_deg']:g} deg, {a} and {b} differ by {diff:.3g} {unit} RMS before the "
             f"first leaves the ramp ({best['separation']:.3g} noise levels of the averaged rate"
             + (", refitted" if best["refitted"] else ", the parameters' uncertainty included") + ")")

@@ -15,8 +15,8 @@ responses after each release that the baseline must explain.  `prepare` finds th
   may have grabbed anywhere in the half swing after it;
 * ramp: from the start of motion to `ramp_exit_s` (the paper uses only data before the robot
   leaves the ramp; without the field, to the exit read from the rate's fall onto the floor,
-  roboball.ingest.releases.ramp.exit_from_rate, else to the end of the record).  A soft shell that is not resting in its contact at the release (dropped,
-  or pushed) bounces on the ground at ~5 Hz, and the drive rate carries that bounce: no effect
+  roboball.ingest.releases.ramp.exit_from_rate, else to the end of the record).  A soft shell
+  that is not resting in its contact at the release (dropped, or pushed) bounces on the ground at ~5 Hz, and the drive rate carries that bounce: no effect
   of the vocabulary models it (and no rigid baseline can).  Before the test bed started its
   runs settled in the contact (roboball.sim.scenarios.settle_on_ground) it was 90% of the
   residual of its ramp runs and hid the effects that change the speed's trend.  The diagnosis
@@ -140,6 +140,11 @@ class Prepared:
     @property
     def n(self) -> int:
         return sum(w.n for w in self.windows)
+
+    @property
+    def unit_key(self) -> str:
+        """The signal's unit as it stands in a key or column name ("rad", "rad_s")."""
+        return self.unit.replace("/", "_")
 
     @property
     def fit_noise(self) -> float:

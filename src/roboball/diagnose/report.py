@@ -108,7 +108,7 @@ def predictions_table(d: Diagnosis, drake_base: dict, drake_aug: dict):
     the augmented model's held-out (cross-validated) reduced-model prediction; the pipeline
     scores ramp runs (PME, eq. 12) from this table."""
     import pandas as pd
-    unit = "rad_s" if d.prep.unit == "rad/s" else "rad"
+    unit = d.prep.unit_key
     frames = []
     for w in d.prep.windows:
         cv = d.final.cv_pred.get(w.index, np.full(w.n, np.nan))

@@ -167,7 +167,8 @@ class RampModel(ReducedModel):
         a = P.get("ramp_angle_rad")
         if a is None or np.all(np.asarray(a) == self.alpha):
             return self.constants()
-        K = np.array([eq.constants(self, x) for x in np.broadcast_to(np.asarray(a, dtype=float), (B,))])
+        angles, row = np.unique(np.broadcast_to(np.asarray(a, dtype=float), (B,)), return_inverse=True)
+        K = np.array([eq.constants(self, x) for x in angles])[row]     # once per ramp, not per row
         return tuple(K[:, j].copy() for j in range(K.shape[1]))
 
     def majd_args(self) -> tuple:
