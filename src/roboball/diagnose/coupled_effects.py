@@ -271,26 +271,40 @@ def baseline_spec(p_kpa: float, laws, friction: dict):
 
 def held_out(reps, laws, friction, pressure=None, log=None) -> list[dict]:
     """Every fold: pressure fitted on its training repeats (or time window), screen, refit, and
-    the baseline's and the augmented model's RMS per coordinate on the held-out samples."""
+    the baseline's and the augmented model's RMS per coordinate on the held-out samples.  Each
+    fold's dict also holds the diagnosed model (`spec`) and the held-out repeats' runs of the
+    baseline and of that model (`runs`), which a caller scoring the same repeats reuses rather
+    than runs again; `fold_summary` leaves both out."""
     if pressure is None:
         # one recording: its pressure from the training window only (nothing of the held-out part)
         train = reps if len(reps) > 1 else [truncated(reps[0], folds_of(reps)[0].train[reps[0].name])]
         pressure = fit_pressure(train, laws, friction)
-    out = []
+    out, baselines = [], {}
     for fold in folds_of(reps):
         p = pressure.folds.get(fold.name, pressure.p_kpa)
         base = baseline_spec(p, laws, friction)
-        preds0 = predict_all(base, reps)        # the baseline's runs: the screen's, the refits' and the test's
+        if p not in baselines:          # folds at one pressure (a logged one) share the baseline's runs
+            baselines[p] = predict_all(base, reps)
+        preds0 = baselines[p]                   # the baseline's runs: the screen's, the refits' and the test's
         chosen, _ = screen(base, reps, fold.train, log=log, preds0=preds0)
         chosen, fit, dropped = fit_chosen(base, chosen, reps, fold.train, preds0=preds0)
         test_names = set(fold.test)
+        spec = effect_spec(base, fit.values)
+        # nothing kept: the diagnosed model is the baseline, whose runs are made
+        preds1 = {n: preds0[n] for n in test_names} if not fit.values else predict_all(spec, reps, test_names)
         before = rms_by_coord(preds0, reps, fold.test)
-        after = rms_by_coord(predict_all(effect_spec(base, fit.values), reps, test_names), reps, fold.test)
+        after = rms_by_coord(preds1, reps, fold.test)
         out.append({"fold": fold.name, "pressure_kpa": p, "effects": [key(*c) for c in chosen],
                     "values": {key(*c): v for c, v in fit.values.items()},
                     "ci95": {key(*c): list(v) for c, v in fit.ci95.items()},
                     "dropped": [key(*c) for c in dropped],
-                    "rmse_heldout_before": before, "rmse_heldout_after": after, "spec": effect_spec(base, fit.values)})
+                    "rmse_heldout_before": before, "rmse_heldout_after": after, "spec": spec,
+                    "runs": {"baseline": {n: preds0[n] for n in test_names}, "diagnosed": preds1}})
         if log:
             log(f"fold {fold.name}: {'+'.join(out[-1]['effects']) or 'nothing'}; held out {before} -> {after}")
     return out
+
+
+def fold_summary(fold: dict) -> dict:
+    """A fold of `held_out` without its model and its runs (what a JSON summary keeps)."""
+    return {k: v for k, v in fold.items() if k not in ("spec", "runs")}

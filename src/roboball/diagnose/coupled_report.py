@@ -21,8 +21,8 @@ from roboball.atomic import output_folder, write_csv_atomic, write_json_atomic, 
 from roboball.errors import RoboballError
 from roboball.physics import effects as fx
 from roboball.diagnose.coupled import COORDS, fit_pressure, logged_pressure, read_repeats
-from roboball.diagnose.coupled_effects import (baseline_spec, effect_spec, fit_chosen, folds_of, held_out, key,
-                                               predict_all, rms_by_coord, screen, truncated)
+from roboball.diagnose.coupled_effects import (baseline_spec, effect_spec, fit_chosen, fold_summary, folds_of,
+                                               held_out, key, predict_all, rms_by_coord, screen, truncated)
 from roboball.diagnose.scored import Settings
 from roboball.diagnose.sensor_fit import sample_noise
 from roboball.metrics import lag1
@@ -174,7 +174,7 @@ def diagnose_coupled(reps, laws, friction, out_dir, log=None, pressure_kpa: floa
                 "per_coordinate": {"before": rms_by_coord(pred_base, reps, train), "after": rms_by_coord(pred_aug, reps, train),
                                    "heldout_before": _pooled(heldout, "rmse_heldout_before"),
                                    "heldout_after": _pooled(heldout, "rmse_heldout_after")}},
-        "heldout_folds": [{k: v for k, v in f.items() if k != "spec"} for f in heldout],
+        "heldout_folds": [fold_summary(f) for f in heldout],
         "dropped": [key(*c) for c in dropped],
         "notes": ["release states: the first sample, with rates from a quadratic fitted to the first 0.1 s of each log (estimated from the data, not fitted by simulation)"],
     }

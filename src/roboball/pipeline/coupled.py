@@ -55,12 +55,17 @@ def run_models(reps, laws, friction, pressure, authors_fit, diagnosed, extra=(),
     from roboball.sim.coupled import MODELS, coupled_spec, fixed_hydro
 
     rows, traces = [], [_trace("recording", r, {"pipe_angle_rad": r.pipe, "steer_angle_rad": r.steer}) for r in reps]
+    # the diagnosis's baseline is the injected shell at the fold's pressure: its held-out runs are made
+    made = {(r, f["pressure_kpa"]): pred for f in diagnosed for r, pred in f.get("runs", {}).get("baseline", {}).items()}
     for m in (*models_for(laws, MODELS, logged), *models_for(laws, extra, logged)):
         for r in reps:
             p = pressure.folds.get(r.name, pressure.p_kpa) if m.needs_pressure else None
-            spec = coupled_spec(*m.shell(p, laws), friction)
-            spec.pressure_kpa = p
-            pred = run(spec, r)
+            if m.name == "injected" and (r.name, p) in made:
+                pred = made[(r.name, p)]
+            else:
+                spec = coupled_spec(*m.shell(p, laws), friction)
+                spec.pressure_kpa = p
+                pred = run(spec, r)
             rows.append(_rows(m.name, r, pred, m.name not in in_sample, p))
             traces.append(_trace(m.name, r, pred))
     if authors_fit is not None:      # our refit of the authors' objective (pressure not logged)
@@ -73,7 +78,8 @@ def run_models(reps, laws, friction, pressure, authors_fit, diagnosed, extra=(),
     by_name = {r.name: r for r in reps}
     for fold in diagnosed:
         r = by_name[fold["fold"]]
-        pred = run(fold["spec"], r)
+        pred = fold["runs"]["diagnosed"][r.name] if r.name in fold.get("runs", {}).get("diagnosed", {}) \
+            else run(fold["spec"], r)
         rows.append(_rows("diagnosed", r, pred, True, None if pressure_unknown(laws, logged) else fold["pressure_kpa"]))
         traces.append(_trace("diagnosed", r, pred))
     table = pd.DataFrame(rows)
@@ -201,7 +207,7 @@ def steer_coupled(recordings: list, regression: str, friction_steer: str, out_js
     real repeats' pressure was not logged; at a logged one the calibrated shell is the pipeline's
     own answer)."""
     from roboball.diagnose.coupled import fit_authors_objective, fit_pressure, logged_pressure, read_repeats
-    from roboball.diagnose.coupled_effects import held_out
+    from roboball.diagnose.coupled_effects import fold_summary, held_out
     from roboball.figures.coupled import plot
     from roboball.identify.friction.fitted import read_stand_friction
     from roboball.sim.schedule import ShellLaws
@@ -226,7 +232,7 @@ def steer_coupled(recordings: list, regression: str, friction_steer: str, out_js
     summary = {
         "pressure": _pressure_summary(laws, pressure, logged),
         "authors_objective": authors,
-        "diagnosed": [{k: v for k, v in f.items() if k != "spec"} for f in diagnosed],
+        "diagnosed": [fold_summary(f) for f in diagnosed],
         "diagnosed_beats_paper_models": beats_paper_models(table),
         "friction_steer": friction,
         "left_out": left_out,
