@@ -320,6 +320,42 @@ def test_the_best_release_of_the_user_s_length_is_ranked_by_the_expected_gap():
     assert _best_single([], user) is None and _best_single(rows, None) is None
 
 
+def test_the_refit_shortlist_holds_the_best_release_of_each_steer_clamp_setting():
+    """A clamped shell's loss tie released mid-range (the shell-loss closed loop with first releases
+    of 0.3-0.45 rad): the three best releases by the expected gap were all with the pendulum free,
+    so the shortlist refitted only those and the user's own repeat, and that repeat (0.42 noise
+    levels refitted) ranked above a clamped 0.6 rad release that settles it (2.26 refitted).  Each
+    setting's best is now refitted too; a kind without clamp settings keeps the shortlist it had."""
+    from roboball.design.plan import SHORTLIST, shortlist
+
+    def row(release, setting, gap, fixed):
+        return {"release_rad": [release], "steer_joint": setting, "expected_chi2_gap": gap,
+                "separation_fixed_params": fixed}
+
+    user = row(0.4, "locked", 355.0, 0.4)
+    rows = [row(0.55, "free", 1.7e5, 24.0), row(0.5, "free", 1.6e5, 25.0), row(-0.5, "free", 1.5e5, 23.0),
+            row(0.6, "locked", 1.0e4, 11.1), row(-0.6, "locked", 0.9e4, 10.9), user]
+    short = shortlist(rows, user)
+    assert short == [user, rows[0], rows[1], rows[2], rows[3]] and len(short) == SHORTLIST + 1
+    for r in rows:
+        r["steer_joint"] = None
+    assert shortlist(rows, user) == [user, rows[0], rows[1], rows[2]]
+
+
+def test_a_best_experiment_that_changes_the_clamp_names_the_best_with_the_user_s_clamp():
+    """A diagnosis takes one steer setting: where the best experiment unclamps the pendulum of a
+    clamped shell, the choice also names the best ranked experiment with the clamp as it was."""
+    from roboball.design.plan import _best_same_clamp
+
+    user = {"release_rad": [0.4], "steer_joint": "locked"}
+    rows = [{"release_rad": [0.55], "steer_joint": "free"}, {"release_rad": [0.6], "steer_joint": "locked"}, user]
+    assert _best_same_clamp(rows, rows[0], user) is rows[1]
+    assert _best_same_clamp(rows, rows[1], user) is None                # the best keeps the clamp
+    assert _best_same_clamp(rows, rows[0], None) is None
+    stand = [{"release_rad": [1.1], "steer_joint": None}]
+    assert _best_same_clamp(stand, stand[0], {"release_rad": [0.3], "steer_joint": None}) is None
+
+
 def test_a_breakaway_bounded_from_below_only_is_a_choice_between_its_interval_s_ends():
     """A joint's breakaway whose profile interval reaches the law's bound (roboball.diagnose.profile:
     the data bound it from below only) is a poorly pinned parameter: the design simulates the model

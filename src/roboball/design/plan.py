@@ -36,7 +36,8 @@ def plan(src, log=None) -> tuple[dict, dict]:
                    "candidates": [{"label": c.label, "effects": list(c.effects), "steer_joint": c.steer_joint or None,
                                    "mechanism": choice.mechanism.get(c.label, "")} for c in choice.candidates],
                    "experiments_considered": len(rows), "best": best, "user_like": user,
-                   "best_single_release": _best_single(rows, user or best)}
+                   "best_single_release": _best_single(rows, user or best),
+                   "best_same_clamp": _best_same_clamp(rows, best, user)}
         summary["settled"] = bool(best and best["settles"])
         summary["why"] = why(src, choice, best, user) if best else "no feasible experiment"
         if not summary["settled"]:
@@ -74,8 +75,12 @@ def _ramp_rows(src, choice) -> tuple:
 
 
 def shortlist(rows: list, user: dict | None) -> list:
-    """The single releases worth refitting: a repeat of the user's, then the best by the
-    expected gap and by the fixed-parameter separation, in turn, `SHORTLIST` in all."""
+    """The single releases worth refitting: a repeat of the user's, then the best by the expected
+    gap and by the fixed-parameter separation, in turn, `SHORTLIST` in all; and beyond those the
+    best by the expected gap of each steer clamp setting tried, where it is not among them.  With
+    only the other setting's refitted, a repeat of the user's own release (refitted, settling
+    nothing) ranked above every unrefitted experiment of the user's clamp, so one who keeps the
+    clamp as it was was shown no experiment that settles the choice."""
     singles = [r for r in rows if len(r["release_rad"]) == 1]
     by_fixed = sorted(singles, key=lambda r: -r["separation_fixed_params"])
     out = [user] if user else []
@@ -83,6 +88,10 @@ def shortlist(rows: list, user: dict | None) -> list:
         for r in (a, b):
             if len(out) < SHORTLIST and all(r is not x for x in out):
                 out.append(r)
+    for setting in dict.fromkeys(r.get("steer_joint") or "" for r in singles):
+        best = next(r for r in singles if (r.get("steer_joint") or "") == setting)
+        if all(best is not x for x in out):
+            out.append(best)
     return out
 
 
@@ -99,6 +108,16 @@ def _refitted(src, choice, rows: list, user, by_setting: dict) -> list:
                      separation_vs_residual=round(sep * src.noise / src.residual, 4), settles=sep >= SETTLES)
     done = sorted((r for r in rows if r["refitted"]), key=lambda r: -r["separation"])
     return done + [r for r in rows if not r["refitted"]]
+
+
+def _best_same_clamp(rows: list, best: dict | None, user: dict | None) -> dict | None:
+    """Where the best experiment changes a shell's steer clamp, the best (ranked first) with the
+    user's own: a diagnosis takes one steer setting, so only that one is diagnosed with the
+    user's recording."""
+    own = (user or {}).get("steer_joint")
+    if not (best and own and best.get("steer_joint") not in (None, own)):
+        return None
+    return next((r for r in rows if r.get("steer_joint") == own), None)
 
 
 def _best_single(rows: list, like: dict | None) -> dict | None:
