@@ -290,9 +290,12 @@ def designed(case: dict, folder: Path) -> tuple[dict, list]:
     best = choice["best"]
     user = "locked" if case["kind"] == "shell_rock" and case["tie"] != "steer_setting" else None
     changed = bool(user and best.get("steer_joint") not in (None, "", user))
-    if changed:
-        best = next(r for r in js["experiments"] if r["choice"] == names[0] and r.get("steer_joint") == user)
     g = grids[names[0]][0]
+    if changed:
+        from roboball.design.experiments import grid
+        best = choice["best_same_clamp"]
+        # the control is made with the user's clamp too: its feasible releases are that setting's
+        g = grid(src, next(c for c in src.choices if c.name == names[0]), user)
     if case["tie"] == "ramp_loss":          # the ramp's angle, and the feasible ones for the control
         return dict(best, clamp_changed=False), [float(a) for a, ok in zip(g.releases, g.feasible) if ok]
     rest = best["release_rad"][0] - best["release_from_rest_rad"][0]
