@@ -54,9 +54,10 @@ Scored on tied cases: the joint diagnosis names the true effect and not the othe
 truth`), and with the other no longer listed as its equivalent (`decided`; for the steer
 setting: the other setting's held-out RMS worse by the choice's 5% margin).
 
-A shell design may rank an experiment with the steer clamp changed first; a clamped and a free
-recording cannot be diagnosed together (one steer setting per diagnosis), so the best experiment
-with the user's own setting is made instead, and the table counts how often that happened.
+A shell design ranks the experiments with the user's steer clamp first: a clamped and a free
+recording cannot be diagnosed together (one steer setting per diagnosis).  Where the other clamp's
+best parts the candidates further (`best_other_clamp`), the table counts it, and that recording
+(for these ties the pendulum free) is also made and diagnosed on its own, on a line of its own.
 """
 from __future__ import annotations
 
@@ -192,6 +193,8 @@ def record(case: dict, from_rest: list, free_s: float, folder: Path, name: str, 
     meta = {"kind": kind, "pressure_kpa": case.get("pressure_kpa")}
     if case["tie"] == "steer_setting":
         meta["steer_joint"] = "unknown"
+    elif case["steer_joint"] == "free":     # the design's own best with the clamp changed, made as it says
+        meta["steer_joint"] = "free"
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / f"{name}.csv"
     write_recording(path, measure(dense, truth["sensors"], rng), meta)
@@ -287,20 +290,15 @@ def designed(case: dict, folder: Path) -> tuple[dict, list]:
     if not names:
         raise RuntimeError(f"{case['id']}: the design has no {about} choice between {sorted(pair)}")
     choice = next(c for c in js["choices"] if c["choice"] == names[0])
-    best = choice["best"]
-    user = "locked" if case["kind"] == "shell_rock" and case["tie"] != "steer_setting" else None
-    changed = bool(user and best.get("steer_joint") not in (None, "", user))
+    best = choice["best"]               # with the user's clamp (roboball.design.plan._own_clamp_first)
+    other = choice.get("best_other_clamp")      # the other clamp's, where it parts them further
+    changed = bool(other)
     g = grids[names[0]][0]
-    if changed:
-        from roboball.design.experiments import grid
-        best = choice["best_same_clamp"]
-        # the control is made with the user's clamp too: its feasible releases are that setting's
-        g = grid(src, next(c for c in src.choices if c.name == names[0]), user)
     if case["tie"] == "ramp_loss":          # the ramp's angle, and the feasible ones for the control
         return dict(best, clamp_changed=False), [float(a) for a, ok in zip(g.releases, g.feasible) if ok]
     rest = best["release_rad"][0] - best["release_from_rest_rad"][0]
     feasible = [round(float(r - rest), 4) for r, ok in zip(g.releases, g.feasible) if ok]
-    return dict(best, clamp_changed=changed), feasible
+    return dict(best, clamp_changed=changed, overall=other), feasible
 
 
 def run_case(case: dict, keep: str | None = None) -> dict:
@@ -336,6 +334,12 @@ def run_case(case: dict, keep: str | None = None) -> dict:
                 second = (ramp_run(case, rel[0], first.parent, arm, stream) if ramp else
                           record(case, rel, best["settle_s"], first.parent, arm, stream))
                 result[arm] = judged(case, [*firsts, second], first.parent / f"{arm}_diagnosis")
+            if best.get("overall"):     # the other clamp's best (the pendulum free): diagnosed on its own
+                o = best["overall"]
+                alone = record(dict(case, steer_joint="free"), o["release_from_rest_rad"], o["settle_s"],
+                               first.parent, "overall_free", 4)
+                result["overall_free"] = dict(judged(case, [alone], first.parent / "overall_free_diagnosis"),
+                                              release_from_rest_rad=o["release_from_rest_rad"], settle_s=o["settle_s"])
         if keep:
             import shutil
             shutil.copytree(root, Path(keep) / case["id"], dirs_exist_ok=True)
@@ -369,6 +373,12 @@ def table(results: list) -> str:
         lines.append(f"{tie} | {len(rs)} | {n} | {score('first')} | {score('designed')} | {score('random')} | "
                      f"{fisher_p(decided('designed'), decided('random'), n):.2g} | {med} | "
                      f"{sum(r['best'].get('clamp_changed', False) for r in tied if 'best' in r)} | {failed}")
+    alone = [(r["tie"], r["overall_free"]["picked"] == r["truth"] and r["overall_free"]["decided"])
+             for r in results if _tied(r) and "overall_free" in r]
+    for tie in dict.fromkeys(t for t, _ in alone):
+        ok = [d for t, d in alone if t == tie]
+        lines.append(f"\n{tie}: where the other steer clamp's best parts the candidates further, that recording "
+                     f"(the pendulum free), diagnosed on its own, names the truth decided in {sum(ok)} of {len(ok)}")
     return "\n".join(lines)
 
 
@@ -407,6 +417,10 @@ def _line(r: dict) -> str:
         text += (f"; designed {setting} (sep {b['separation']:.3g}) -> "
                  f"{r['designed']['picked']} (decided {r['designed']['decided']}); random {r['random_release']} -> "
                  f"{r['random']['picked']} (decided {r['random']['decided']})")
+        if "overall_free" in r:
+            o = r["overall_free"]
+            text += (f"; the other clamp's best, pendulum free, alone {o['release_from_rest_rad']} -> {o['picked']} "
+                     f"(decided {o['decided']})")
     return text + f" ({r['seconds']:.0f} s)"
 
 

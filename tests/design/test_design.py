@@ -342,18 +342,26 @@ def test_the_refit_shortlist_holds_the_best_release_of_each_steer_clamp_setting(
     assert shortlist(rows, user) == [user, rows[0], rows[1], rows[2]]
 
 
-def test_a_best_experiment_that_changes_the_clamp_names_the_best_with_the_user_s_clamp():
-    """A diagnosis takes one steer setting: where the best experiment unclamps the pendulum of a
-    clamped shell, the choice also names the best ranked experiment with the clamp as it was."""
-    from roboball.design.plan import _best_same_clamp
+def test_experiments_with_the_user_s_steer_clamp_rank_first_and_the_other_clamp_s_best_is_named():
+    """A diagnosis takes one steer setting: a shell's experiments with the user's clamp rank first
+    (only they are diagnosed together with the user's recording, as the refit supposes), each
+    marked; the other clamp's best is named where it parts the candidates further.  A stand
+    (no clamp setting) keeps its order and gets no mark."""
+    from roboball.design.plan import _best_other_clamp, _own_clamp_first
 
-    user = {"release_rad": [0.4], "steer_joint": "locked"}
-    rows = [{"release_rad": [0.55], "steer_joint": "free"}, {"release_rad": [0.6], "steer_joint": "locked"}, user]
-    assert _best_same_clamp(rows, rows[0], user) is rows[1]
-    assert _best_same_clamp(rows, rows[1], user) is None                # the best keeps the clamp
-    assert _best_same_clamp(rows, rows[0], None) is None
-    stand = [{"release_rad": [1.1], "steer_joint": None}]
-    assert _best_same_clamp(stand, stand[0], {"release_rad": [0.3], "steer_joint": None}) is None
+    user = {"release_rad": [0.4], "steer_joint": "locked", "separation": 0.42}
+    free1 = {"release_rad": [0.55], "steer_joint": "free", "separation": 41.8}
+    free2 = {"release_rad": [0.5], "steer_joint": "free", "separation": 34.2}
+    locked = {"release_rad": [0.6], "steer_joint": "locked", "separation": 2.26}
+    rows = _own_clamp_first([free1, free2, locked, user], user)
+    assert rows == [locked, user, free1, free2]
+    assert [r["diagnosed_with_user"] for r in rows] == [True, True, False, False]
+    assert _best_other_clamp(rows, rows[0]) is free1
+    assert _best_other_clamp([dict(locked, separation=50.0, diagnosed_with_user=True), free1], None) is None
+    assert _best_other_clamp(_own_clamp_first([dict(locked, separation=50.0), free1], user), dict(locked, separation=50.0)) is None
+    stand = [{"release_rad": [1.1], "steer_joint": None}, {"release_rad": [0.3], "steer_joint": None}]
+    assert _own_clamp_first(list(stand), {"release_rad": [0.3], "steer_joint": None}) == stand
+    assert "diagnosed_with_user" not in stand[0] and _best_other_clamp(stand, stand[0]) is None
 
 
 def test_a_breakaway_bounded_from_below_only_is_a_choice_between_its_interval_s_ends():

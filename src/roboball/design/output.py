@@ -60,13 +60,13 @@ def markdown(js: dict) -> str:
         lines += [f"**Best experiment** ({verdict}): {_settings(best)}: separation {best['separation']:.3g} noise levels "
                   f"(fixed parameters {best['separation_fixed_params']:.3g}; {best['separation_vs_residual']:.2g} times "
                   f"the diagnosed model's residual), expected chi^2 gap {best['expected_chi2_gap']:.4g}.", ""]
-        same = c.get("best_same_clamp")
-        if same:
-            lines += [f"It changes the steer clamp, and `roboball diagnose` takes one steer setting at a time: that "
-                      "recording cannot be diagnosed together with the user's, as its separation supposes. The best "
-                      f"with the clamp as the user's ({_settings(same)}): separation {same['separation']:.3g} noise "
-                      f"levels{', refitted' if same['refitted'] else ' (expected gap ranking, not refitted)'} "
-                      f"({'settles it' if same['settles'] else 'does not settle it'}).", ""]
+        other = c.get("best_other_clamp")
+        if other:
+            lines += [f"With the steer clamp changed ({_settings(other)}) the candidates part further: separation "
+                      f"{other['separation']:.3g} noise levels{', refitted' if other['refitted'] else ''}, were both "
+                      "recordings diagnosed together. `roboball diagnose` takes one steer setting at a time, so that "
+                      "recording would be diagnosed on its own, which the separation does not measure; the best "
+                      "experiment above keeps the clamp as the user's.", ""]
         single = c.get("best_single_release")
         if single and single is not best:
             lines += [f"Best single release of the user's length: {_settings(single)}: predicted separation "
