@@ -193,7 +193,7 @@ def record(case: dict, from_rest: list, free_s: float, folder: Path, name: str, 
     meta = {"kind": kind, "pressure_kpa": case.get("pressure_kpa")}
     if case["tie"] == "steer_setting":
         meta["steer_joint"] = "unknown"
-    elif case["steer_joint"] == "free":     # the design's own best with the clamp changed, made as it says
+    elif case["steer_joint"] == "free":     # the other clamp's best (best_other_clamp), made as it says
         meta["steer_joint"] = "free"
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / f"{name}.csv"

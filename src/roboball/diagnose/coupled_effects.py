@@ -265,16 +265,19 @@ def fit_chosen(base, chosen: list, reps, masks, preds0: dict | None = None) -> t
     return chosen, fit, dropped
 
 
+BASELINE_MODEL = "injected"     # the shell model of the baseline (roboball.sim.coupled.MODELS)
+
+
 def baseline_spec(p_kpa: float, laws, friction: dict):
-    return model_spec("injected", p_kpa, laws, friction)
+    return model_spec(BASELINE_MODEL, p_kpa, laws, friction)
 
 
 def held_out(reps, laws, friction, pressure=None, log=None) -> list[dict]:
     """Every fold: pressure fitted on its training repeats (or time window), screen, refit, and
     the baseline's and the augmented model's RMS per coordinate on the held-out samples.  Each
-    fold's dict also holds the diagnosed model (`spec`) and the held-out repeats' runs of the
-    baseline and of that model (`runs`), which a caller scoring the same repeats reuses rather
-    than runs again; `fold_summary` leaves both out."""
+    fold's dict also holds the held-out repeats' runs of the baseline and of the diagnosed model
+    (`runs`), which a caller scoring the same repeats reuses rather than runs again;
+    `fold_summary` leaves them out."""
     if pressure is None:
         # one recording: its pressure from the training window only (nothing of the held-out part)
         train = reps if len(reps) > 1 else [truncated(reps[0], folds_of(reps)[0].train[reps[0].name])]
@@ -289,16 +292,16 @@ def held_out(reps, laws, friction, pressure=None, log=None) -> list[dict]:
         chosen, _ = screen(base, reps, fold.train, log=log, preds0=preds0)
         chosen, fit, dropped = fit_chosen(base, chosen, reps, fold.train, preds0=preds0)
         test_names = set(fold.test)
-        spec = effect_spec(base, fit.values)
         # nothing kept: the diagnosed model is the baseline, whose runs are made
-        preds1 = {n: preds0[n] for n in test_names} if not fit.values else predict_all(spec, reps, test_names)
+        preds1 = ({n: preds0[n] for n in test_names} if not fit.values else
+                  predict_all(effect_spec(base, fit.values), reps, test_names))
         before = rms_by_coord(preds0, reps, fold.test)
         after = rms_by_coord(preds1, reps, fold.test)
         out.append({"fold": fold.name, "pressure_kpa": p, "effects": [key(*c) for c in chosen],
                     "values": {key(*c): v for c, v in fit.values.items()},
                     "ci95": {key(*c): list(v) for c, v in fit.ci95.items()},
                     "dropped": [key(*c) for c in dropped],
-                    "rmse_heldout_before": before, "rmse_heldout_after": after, "spec": spec,
+                    "rmse_heldout_before": before, "rmse_heldout_after": after,
                     "runs": {"baseline": {n: preds0[n] for n in test_names}, "diagnosed": preds1}})
         if log:
             log(f"fold {fold.name}: {'+'.join(out[-1]['effects']) or 'nothing'}; held out {before} -> {after}")
@@ -306,5 +309,5 @@ def held_out(reps, laws, friction, pressure=None, log=None) -> list[dict]:
 
 
 def fold_summary(fold: dict) -> dict:
-    """A fold of `held_out` without its model and its runs (what a JSON summary keeps)."""
-    return {k: v for k, v in fold.items() if k not in ("spec", "runs")}
+    """A fold of `held_out` without its runs (what a JSON summary keeps)."""
+    return {k: v for k, v in fold.items() if k != "runs"}

@@ -52,15 +52,16 @@ def run_models(reps, laws, friction, pressure, authors_fit, diagnosed, extra=(),
     without a pressure.  `in_sample`: the models fitted to these repeats (the authors' pairs to
     the real ones); `logged`: `pressure` was logged with the repeats."""
     from roboball.diagnose.coupled import run
+    from roboball.diagnose.coupled_effects import BASELINE_MODEL
     from roboball.sim.coupled import MODELS, coupled_spec, fixed_hydro
 
     rows, traces = [], [_trace("recording", r, {"pipe_angle_rad": r.pipe, "steer_angle_rad": r.steer}) for r in reps]
-    # the diagnosis's baseline is the injected shell at the fold's pressure: its held-out runs are made
-    made = {(r, f["pressure_kpa"]): pred for f in diagnosed for r, pred in f.get("runs", {}).get("baseline", {}).items()}
+    # the held-out test ran its baseline's shell on each left-out repeat at the fold's pressure
+    made = {(r, f["pressure_kpa"]): pred for f in diagnosed for r, pred in f["runs"]["baseline"].items()}
     for m in (*models_for(laws, MODELS, logged), *models_for(laws, extra, logged)):
         for r in reps:
             p = pressure.folds.get(r.name, pressure.p_kpa) if m.needs_pressure else None
-            if m.name == "injected" and (r.name, p) in made:
+            if m.name == BASELINE_MODEL and (r.name, p) in made:
                 pred = made[(r.name, p)]
             else:
                 spec = coupled_spec(*m.shell(p, laws), friction)
@@ -78,8 +79,7 @@ def run_models(reps, laws, friction, pressure, authors_fit, diagnosed, extra=(),
     by_name = {r.name: r for r in reps}
     for fold in diagnosed:
         r = by_name[fold["fold"]]
-        pred = fold["runs"]["diagnosed"][r.name] if r.name in fold.get("runs", {}).get("diagnosed", {}) \
-            else run(fold["spec"], r)
+        pred = fold["runs"]["diagnosed"][r.name]        # the held-out test's run of the left-out repeat
         rows.append(_rows("diagnosed", r, pred, True, None if pressure_unknown(laws, logged) else fold["pressure_kpa"]))
         traces.append(_trace("diagnosed", r, pred))
     table = pd.DataFrame(rows)
