@@ -106,17 +106,25 @@ def _figure(src, js: dict, grids: dict, path) -> str:
         plt.close(fig)
         return path.name
     ncol = max(len(best.get("release_rad", [0])) for _, (_, best) in rows)
-    fig, axes = plt.subplots(2 * len(rows), ncol, figsize=(6.5 * ncol, 7.4 * len(rows)), squeeze=False,
-                             gridspec_kw={"height_ratios": [3, 2] * len(rows)})
+    # a block (prediction over difference) per choice, each laid out on its own: one gridspec for
+    # all spread every gap to the widest one, the legend below a difference panel; one-release
+    # choices sit two across, so that five of them read on a screen, not down a 40-inch column
+    across = 2 if ncol == 1 and len(rows) > 1 else 1
+    down = -(-len(rows) // across)
+    fig = plt.figure(figsize=(6.5 * ncol * across, 6.6 * down), layout="constrained")
+    blocks = fig.subfigures(down, across, squeeze=False, hspace=0.04, wspace=0.03)
     for r, (c, (g, best)) in enumerate(rows):
+        axes = blocks[r // across, r % across].subplots(2, ncol, squeeze=False,
+                                                         gridspec_kw={"height_ratios": [3, 2]})
         for j in range(ncol):
-            top, bottom = axes[2 * r, j], axes[2 * r + 1, j]
+            top, bottom = axes[0, j], axes[1, j]
             if j >= len(best.get("release_rad", [0])):
                 top.axis("off")
                 bottom.axis("off")
                 continue
             _panel(top, bottom, src, c, g, best, j)
-    fig.tight_layout()
+    for b in blocks.flat[len(rows):]:
+        b.set_visible(False)
     savefig_atomic(fig, path, dpi=110, bbox_inches="tight")     # the legends below the panels included
     plt.close(fig)
     return path.name
@@ -140,8 +148,9 @@ def _panel(top, bottom, src, c: dict, g, best: dict, j: int) -> None:
         top.fill_between(t, y - 2 * s, y + 2 * s, color=colours[k % 4], alpha=0.2, lw=0)
         if k:
             bottom.plot(t, y - ref, color=colours[k % 4], lw=1.3, label=f"{lab} - {labels[0]}")
+        # one legend entry for the bands: their colours are the lines' (the top panel's legend)
         bottom.fill_between(t, y - ref - 2 * s, y - ref + 2 * s, color=colours[k % 4], alpha=0.2, lw=0,
-                            label=f"{lab}: 2 sd of its parameter draws")
+                            label=None if k else "2 sd of each candidate's parameter draws")
     unit = src.prep.unit
     bottom.axhspan(-2 * src.noise, 2 * src.noise, color="0.3", alpha=0.45, lw=0,
                    label=f"log's noise, +-2 sigma ({2 * src.noise:.2g} {unit})")
@@ -158,10 +167,10 @@ def _panel(top, bottom, src, c: dict, g, best: dict, j: int) -> None:
     top.set_title(f"{c['choice']}\n{setting}: separation {best['separation']:.3g} noise levels", fontsize=10)
     top.set_ylabel(f"predicted {sig} ({unit})")
     # a descent's rate rises from the lower left: its upper left is free
-    top.legend(fontsize=8, loc="upper left" if ramp else "upper right", title="candidate (band: 2 sd of parameter draws)", title_fontsize=7)
+    top.legend(fontsize=8, loc="upper left" if ramp else "best", title="candidate (band: 2 sd of parameter draws)", title_fontsize=7)
     bottom.set_xlabel("time since release (s)")
     bottom.set_ylabel(f"difference ({unit})")
     # below the panel, not over it: the differences fill the panel's whole height
-    bottom.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.3), ncol=2, frameon=False)
+    bottom.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.3), frameon=False)
     for ax in (top, bottom):
         ax.grid(alpha=0.3)
