@@ -99,6 +99,7 @@ def test_diagnosing_a_steer_coupled_log_without_its_friction_fit_is_a_one_line_e
                          "--regression", str(regression)], capsys)
     assert code != 0 and len(err.splitlines()) == 1, err
     assert f"{missing}: steer friction fit (pipeline rule friction_fit, real steer stand) not found" in err
+    assert "give the file with --friction-steer" in err      # what to do about it
     assert "Traceback" not in err
     # and without the regression, that is named first, in one line
     code, _, err = _cli(["diagnose", str(path), "--out", str(tmp_path / "d"), "--friction-steer", str(missing),

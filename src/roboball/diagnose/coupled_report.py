@@ -123,10 +123,12 @@ def read_inputs(paths, regression, friction_steer) -> tuple:
     from roboball.identify.friction.fitted import read_stand_friction
     from roboball.sim.schedule import ShellLaws
 
-    for f, what in ((regression, "shell regression table (pipeline rule shell_regression)"),
-                    (friction_steer, "steer friction fit (pipeline rule friction_fit, real steer stand)")):
+    for f, what, flag in ((regression, "shell regression table (pipeline rule shell_regression)", "--regression"),
+                          (friction_steer, "steer friction fit (pipeline rule friction_fit, real steer stand)",
+                           "--friction-steer")):
         if not Path(f).is_file():
-            raise RoboballError(f"{f}: {what} not found; the steer_coupled baseline needs it")
+            raise RoboballError(f"{f}: {what} not found; the steer_coupled baseline needs it: run `make figures` "
+                                f"in this checkout first, or give the file with {flag}")
     return read_repeats(paths), ShellLaws.from_regression_csv(regression), read_stand_friction(friction_steer)
 
 
