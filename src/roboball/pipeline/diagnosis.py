@@ -97,7 +97,7 @@ def diagnosed_descent(rec, releases: str, effects: dict, friction: dict, dt: flo
     from roboball.sim.scenarios import simulate
 
     tt, w_e, pipe0 = ramp_window(rec, releases)
-    angle = rec.meta.get("ramp_angle_deg")
+    angle = rec.ramp_angle_deg
     term = effect_term(model_for("ramp", ramp_angle_deg=angle), effects)
     spec = ramp_spec(rec.pressure_kpa, angle, [term] if term is not None else [], dt, friction_params=friction)
     df = simulate(spec, pipe0, float(tt[-1]) + 0.05, sample_rate_hz=200.0)

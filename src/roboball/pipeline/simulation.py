@@ -167,7 +167,7 @@ def ramp_sim(recording: str, releases: str, regression: str, contact: str, out_c
     def run(fp):
         spec = SimSpec(kind="ramp", contact=drake_contact, friction={"steer": "majd", "drive": "majd"},
                        friction_params={k: v for k, v in fp.items() if v}, pressure_kpa=p, shell=shell, dt=dt,
-                       ramp_angle_deg=rec.meta.get("ramp_angle_deg"))
+                       ramp_angle_deg=rec.ramp_angle_deg)
         df = simulate(spec, pipe0, duration, sample_rate_hz=200.0, settled=settled)
         return np.interp(tt, df.time_s.to_numpy(), df.drive_rate_rad_s.to_numpy())
 
