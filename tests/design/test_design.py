@@ -389,3 +389,35 @@ def test_a_breakaway_bounded_from_below_only_is_a_choice_between_its_interval_s_
     assert ends == [2.14, 20.0]
     assert all("stiction.tau_s" not in c.sigma for c in choice.candidates)     # held at its end in each
     assert choices(source([6.62, 6.65])) == []          # the Wald interval the profile replaced: no choice
+
+
+def test_several_choices_are_laid_out_two_across_and_a_pair_of_releases_side_by_side(tmp_path):
+    """design.png reads on a screen: five one-release choices sit two across (one column of them
+    with one gridspec was 4045 x 877 pixels for the real shell log, its gaps spread to the widest),
+    and a choice whose best is two releases shows them side by side."""
+    import matplotlib.image as mpimg
+
+    from roboball.design.output import _figure
+    from roboball.design.plan import plan
+
+    _, folder = _diagnosis(tmp_path)
+    src = read_source(folder)
+    js, grids = plan(src)
+    c = js["choices"][0]
+    g, best = grids[c["choice"]]
+    for k in range(1, 5):
+        js["choices"].append(dict(c, choice=f"{c['choice']} ({k})"))
+        grids[f"{c['choice']} ({k})"] = (g, best)
+    h, w = mpimg.imread(_save(_figure, src, js, grids, tmp_path / "five.png")).shape[:2]
+    assert 1.0 < h / w < 2.0, (h, w)           # three rows of two blocks
+    pair = dict(best, release_rad=[best["release_rad"][0], float(g.releases[0])],
+                release_from_rest_rad=[best["release_from_rest_rad"][0], 0.5])
+    js["choices"] = [dict(c, best=pair)]
+    grids = {c["choice"]: (g, pair)}
+    h2, w2 = mpimg.imread(_save(_figure, src, js, grids, tmp_path / "pair.png")).shape[:2]
+    assert w2 > 1.4 * h2, (h2, w2)              # the two releases side by side
+
+
+def _save(figure, src, js, grids, path):
+    figure(src, js, grids, path)
+    return path
