@@ -141,20 +141,28 @@ def test_real_shell_log_of_unrecorded_steer_setting_is_the_free_pendulum_with_st
 
 @pytest.mark.slow       # the real shell log both ways at a quarter of the step: about 2 min
 @pytest.mark.skipif(not REAL_SHELL.exists(), reason="real logs not available (../shared/data/roboball_real)")
-def test_the_real_shell_log_s_diagnosis_is_the_same_at_a_quarter_of_the_reduced_models_step():
+def test_the_real_shell_log_s_findings_are_the_same_at_a_quarter_of_the_reduced_models_step():
     """The log's noise (33 µrad) is below the free model's 2 ms step error with its rolling
-    resistance (18 µrad against 0.1 ms), and at 1 ms and 5 ms the search adds a softening cubic at
-    its bound (docs/diagnosis.md, Known limits).  At 0.5 ms (5 µrad) it reports what the
-    pipeline's 2 ms reports: the same effects, their values inside each other's intervals."""
+    resistance (18 µrad against 0.1 ms), and its misfit (180 noise levels) leaves the search's last
+    choice on a knife edge: a softening cubic at its bound comes and goes with the step and with
+    NumPy's last bits (docs/diagnosis.md, Known limits).  What the diagnosis reports must not:
+    at 0.5 ms (5 µrad) as at 2 ms, the shell's stiffness, a rolling resistance and a velocity loss
+    (its shape undecided: the drag or the viscous damping, the other listed), their values inside
+    each other's intervals, and nothing else but that cubic."""
     from roboball.diagnose.scored import Settings
 
     runs = {dt: diagnose(REAL_SHELL, steer_joint="unknown", settings=Settings(dt=dt))[1] for dt in (2e-3, 5e-4)}
     found = {dt: {m["effect"]: m for m in js["missing_physics"]} for dt, js in runs.items()}
-    assert set(found[2e-3]) == set(found[5e-4]) == {"quadratic_drag", "linear_stiffness", "rolling_resistance"}
-    for effect, m in found[5e-4].items():
-        for p, v in m["parameters"].items():
-            lo, hi = found[2e-3][effect]["ci95"][p]
-            assert lo <= v <= hi, (effect, p, v, lo, hi)
+    for dt, mp in found.items():
+        loss = {"quadratic_drag", "viscous_damping"} & set(mp)
+        assert {"linear_stiffness", "rolling_resistance"} <= set(mp) and len(loss) == 1, (dt, list(mp))
+        listed = {a["effect"] for a in mp[loss.pop()].get("alternatives", [])}
+        assert set(mp) | listed >= {"quadratic_drag", "viscous_damping"}, (dt, list(mp), listed)
+        assert set(mp) <= {"linear_stiffness", "rolling_resistance", "quadratic_drag", "viscous_damping",
+                           "cubic_stiffness"}, (dt, list(mp))
+    for effect, p in (("linear_stiffness", "k"), ("rolling_resistance", "tau_rr")):
+        (lo1, hi1), (lo2, hi2) = (found[dt][effect]["ci95"][p] for dt in (2e-3, 5e-4))
+        assert lo1 <= hi2 and lo2 <= hi1, (effect, (lo1, hi1), (lo2, hi2))
 
 
 @pytest.mark.slow       # a test-bed shell release, both steer settings: about 2 min
