@@ -408,16 +408,13 @@ def test_several_choices_are_laid_out_two_across_and_a_pair_of_releases_side_by_
     for k in range(1, 5):
         js["choices"].append(dict(c, choice=f"{c['choice']} ({k})"))
         grids[f"{c['choice']} ({k})"] = (g, best)
-    h, w = mpimg.imread(_save(_figure, src, js, grids, tmp_path / "five.png")).shape[:2]
+    _figure(src, js, grids, tmp_path / "five.png")
+    h, w = mpimg.imread(tmp_path / "five.png").shape[:2]
     assert 1.0 < h / w < 2.0, (h, w)           # three rows of two blocks
     pair = dict(best, release_rad=[best["release_rad"][0], float(g.releases[0])],
                 release_from_rest_rad=[best["release_from_rest_rad"][0], 0.5])
     js["choices"] = [dict(c, best=pair)]
     grids = {c["choice"]: (g, pair)}
-    h2, w2 = mpimg.imread(_save(_figure, src, js, grids, tmp_path / "pair.png")).shape[:2]
+    _figure(src, js, grids, tmp_path / "pair.png")
+    h2, w2 = mpimg.imread(tmp_path / "pair.png").shape[:2]
     assert w2 > 1.4 * h2, (h2, w2)              # the two releases side by side
-
-
-def _save(figure, src, js, grids, path):
-    figure(src, js, grids, path)
-    return path
