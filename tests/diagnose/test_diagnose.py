@@ -300,3 +300,49 @@ def test_stiction_that_stops_the_swings_early_is_found(tmp_path, case_id):
     # tau_s is the breakaway excess the law holds (0.47 and 0.88 N m against the truth's 0.50
     # and 0.45); as the former hump amplitude it read 0.78 and 1.48, 1.6 and 3.3 times the truth
     assert 0.4 < tau_s / case["effects"]["stiction"]["tau_s"] < 2.5
+
+
+def test_the_report_s_two_drake_models_run_side_by_side_with_the_sequential_result(monkeypatch):
+    """Given a second thread the report runs the baseline and the augmented model in Drake at
+    once (Drake steps without the GIL); the predictions are the same bits as one after the other,
+    and the notes each run adds come in the sequential order (the baseline's first)."""
+    import threading
+    from types import SimpleNamespace
+
+    from roboball.diagnose import drake, report
+    from roboball.diagnose.data import prepare, read
+    from roboball.reduced.models import model_for
+
+    def case():
+        prep = prepare(read(REPO / "raw_data" / "steer_stand" / "steer_stand_r1.csv"))
+        prep.windows = prep.windows[:1]
+        w = prep.windows[0]
+        w.t, w.y = w.t[w.t <= w.t0 + 1.0], w.y[w.t <= w.t0 + 1.0]
+        # both starts past the steer stop, at different angles: each run notes its own
+        return SimpleNamespace(prep=prep, model=model_for("steer_stand"), chosen=("coulomb_friction",),
+                               baseline=SimpleNamespace(values={"viscous_c": 0.2, "q0@0": 1.2}),
+                               final=SimpleNamespace(values={"viscous_c": 0.2, "q0@0": 1.1,
+                                                             "coulomb_friction.tau_c": 0.3}))
+
+    threads = []
+    run = drake.simulate_windows
+
+    def spy(*a, **kw):
+        threads.append((a[2]["q0@0"], threading.current_thread() is threading.main_thread()))
+        return run(*a, **kw)
+
+    monkeypatch.setattr(report, "simulate_windows", spy)
+    out = {}
+    for n in (1, 2):
+        monkeypatch.setattr(report.numba, "get_num_threads", lambda n=n: n)
+        d = case()
+        out[n] = (report._drake_predictions(d, True), list(d.prep.notes))
+        # one thread: both in this one; two: the final model in the other
+        assert sorted(threads) == [(1.1, n == 1), (1.2, True)]
+        threads.clear()
+    (base1, aug1, stats1), notes1 = out[1]
+    (base2, aug2, stats2), notes2 = out[2]
+    assert np.array_equal(base1[0], base2[0]) and np.array_equal(aug1[0], aug2[0])
+    assert not np.array_equal(base1[0], aug1[0]) and stats1 == stats2
+    assert notes1 == notes2 and len(notes1) == 2
+    assert "1.2 rad" in notes1[0] and "1.1 rad" in notes1[1]

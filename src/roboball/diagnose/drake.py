@@ -133,9 +133,13 @@ def _level_before(prep: Prepared, window, column: str, t0: float) -> float:
     return float(np.median(y[m])) if m.any() else float(np.interp(t0, t, y))
 
 
-def simulate_windows(prep: Prepared, model: ReducedModel, values: dict, effects, dt: float | None = None) -> dict:
+def simulate_windows(prep: Prepared, model: ReducedModel, values: dict, effects, dt: float | None = None,
+                     notes: list | None = None) -> dict:
     """Drake prediction at every window's samples, from the fitted release states (a pooled
-    ramp run on its own ramp: one diagram per angle)."""
+    ramp run on its own ramp: one diagram per angle).  What the runs had to change (a release
+    past a joint's stop) is noted in `notes`, by default the recording's own (`prep.notes`);
+    runs made side by side in threads each take a list of their own."""
+    notes = prep.notes if notes is None else notes
     rate = 1000.0
     diagrams = {}
     out = {}
@@ -161,8 +165,8 @@ def simulate_windows(prep: Prepared, model: ReducedModel, values: dict, effects,
                 if not lo <= release <= hi:
                     note = (f"release {w.index + 1}: start angle {release:.4g} rad lies past the steer joint's "
                             f"limits [{lo:g}, {hi:g}] rad of the robot facts; the Drake runs start at the limit")
-                    if note not in prep.notes:
-                        prep.notes.append(note)
+                    if note not in notes:
+                        notes.append(note)
                     release = min(max(release, lo), hi)
         rates0 = None
         if model.hidden_release:       # the unobserved steer joint's fitted release state
