@@ -308,3 +308,48 @@ def test_the_steer_decision_asks_the_winner_to_explain_the_recording_or_to_remov
     assert b is None and not dec and "within 5%" in said
     # the same rule for a locked winner
     assert decide({"free": 0.0202, "locked": 0.00175}, misfits, dict(strong, ms_ratio=1 / 133.0), s)[:2] == ("locked", True)
+
+
+def test_both_settings_side_by_side_return_and_say_what_one_after_the_other_does(monkeypatch):
+    """Given a second thread the two settings' diagnoses run at once, the free one in a worker
+    thread; the runs and the messages (the free one's held back until the locked one is done)
+    are those of a sequential run."""
+    import threading
+    import time
+
+    from roboball.diagnose import steer
+
+    where = {}
+
+    def one(setting, say):
+        where[setting] = threading.current_thread() is threading.main_thread()
+        for step in ("data", "baseline", "round"):
+            if say:
+                say(f"{step}: {setting}")
+            time.sleep(0.01 if setting == "locked" else 0.005)   # interleaved if said as they come
+        return setting.upper()
+
+    for n in (1, 2):
+        monkeypatch.setattr(steer.numba, "get_num_threads", lambda n=n: n)
+        said = []
+        assert steer.both_settings(one, said.append) == {"locked": "LOCKED", "free": "FREE"}
+        assert said == [f"{step}: {s}" for s in ("locked", "free") for step in ("data", "baseline", "round")]
+        assert where == {"locked": True, "free": n == 1}
+        assert steer.both_settings(one, None) == {"locked": "LOCKED", "free": "FREE"}
+
+
+@pytest.mark.slow       # a campaign shell release, both steer settings, twice: about 2 min
+def test_a_diagnosis_of_unrecorded_steer_setting_is_the_same_in_one_thread_as_in_two(tmp_path, monkeypatch):
+    """The two settings' searches and the report's two Drake models side by side (two threads)
+    write the same diagnosis, predictions and figures as one after the other."""
+    from roboball.diagnose import report, steer
+
+    csv = REPO / "raw_data" / "shell_rock" / "shell_rock_20.7kpa_r1.csv"
+    files = ("diagnosis.json", "predictions.csv", "overlay.png", "windows.png", "regimes.png")
+    out = {}
+    for n in (1, 2):
+        monkeypatch.setattr(steer.numba, "get_num_threads", lambda n=n: n)
+        monkeypatch.setattr(report.numba, "get_num_threads", lambda n=n: n)
+        diagnose(csv, out_dir=tmp_path / str(n), steer_joint="unknown")
+        out[n] = {f: (tmp_path / str(n) / f).read_bytes() for f in files}
+    assert out[1] == out[2]

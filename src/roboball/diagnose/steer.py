@@ -4,6 +4,9 @@ release with the pendulum free")."""
 from __future__ import annotations
 
 import math
+from concurrent.futures import ThreadPoolExecutor
+
+import numba
 
 from roboball.diagnose.crossval import paired_heldout
 from roboball.diagnose.data import pool, prepare
@@ -30,14 +33,18 @@ def either_steer_setting(recs, prep, settings, log, steer_friction: dict | None)
     The decided setting is reported; an undecided one reports the contract's default, locked, and
     says that the recording cannot tell (`roboball design` names the recording that would).  The
     report's notes give both."""
-    runs = {}
-    for setting in ("locked", "free"):
-        if log:
-            log(f"data: the steer joint {setting} (its setting is not recorded: both are tried)")
+    # made here, before any thread: a shell model's rolling radius is a Drake run (cached), and
+    # the searches themselves run no Drake
+    models = {"locked": None, "free": ShellSteerModel(friction=steer_friction)}
+
+    def one(setting, say):
+        if say:
+            say(f"data: the steer joint {setting} (its setting is not recorded: both are tried)")
         # each its own prep: a diagnosis writes its notes (and a fitted sensor lag) into it
         p = prep if setting == "locked" else pool([prepare(r) for r in recs])
-        model = ShellSteerModel(friction=steer_friction) if setting == "free" else None
-        runs[setting] = diagnose_prepared(p, settings=settings, log=log, model=model)
+        return diagnose_prepared(p, settings=settings, log=say, model=models[setting])
+
+    runs = both_settings(one, log)
     s = settings or Settings()
     cv = {k: d.final.cv_rmse for k, d in runs.items()}
     # ms_ratio > 1: the free model's held-out errors are the smaller
@@ -56,6 +63,24 @@ def either_steer_setting(recs, prep, settings, log, steer_friction: dict | None)
                         "test": {k: (float(f"{v:.6g}") if isinstance(v, float) and math.isfinite(v) else v)
                                  for k, v in test.items()}}
     return d
+
+
+def both_settings(one, log) -> dict:
+    """{"locked": one("locked", log), "free": one("free", ...)}: given a second thread (Numba's
+    count; the workflow gives each job one) the two diagnoses run side by side, the free one in a
+    worker thread (its compiled loops and Drake release the GIL), with the same results as one
+    after the other: the two share nothing they write, and the free one's messages are held back
+    and said after the locked one's, in the order a sequential run says them."""
+    if numba.get_num_threads() < 2:
+        return {"locked": one("locked", log), "free": one("free", log)}
+    held = []
+    with ThreadPoolExecutor(max_workers=1) as worker:
+        free = worker.submit(one, "free", held.append if log else None)
+        locked = one("locked", log)     # in this thread, where Ctrl-C lands
+        runs = {"locked": locked, "free": free.result()}
+    for message in held:
+        log(message)
+    return runs
 
 
 def decide(cv: dict, verdicts: dict, test: dict, s: Settings) -> tuple:

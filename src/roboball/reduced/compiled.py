@@ -130,7 +130,7 @@ def _shell_accel(q, v, r, k_g, mrd, mrd2, m0, codes, par):
     return tau / den
 
 
-@cached_jit(parallel=True)
+@cached_jit(parallel=True, nogil=True)
 def _run_stand(q0, v0, n_steps, dt, k_g, c, inv_i, codes, par, Q, V):
     h2 = 0.5 * dt
     for r in prange(q0.size):
@@ -149,7 +149,7 @@ def _run_stand(q0, v0, n_steps, dt, k_g, c, inv_i, codes, par, Q, V):
             V[r, k] = v
 
 
-@cached_jit(parallel=True)
+@cached_jit(parallel=True, nogil=True)
 def _run_shell(q0, v0, n_steps, dt, k_g, mrd, mrd2, m0, codes, par, Q, V):
     h2 = 0.5 * dt
     for r in prange(q0.size):
@@ -182,7 +182,7 @@ def _steer_accel(ph, th, v, w, r, geo, mj, k_g, codes, par):
     return _steer_solve(m11, m12, geo[6], f1, f2)
 
 
-@cached_jit(parallel=True)
+@cached_jit(parallel=True, nogil=True)
 def _run_steer(q0, v0, th0, w0, n_steps, dt, geo, mj, k_g, codes, par, Q, V, TH, W):
     h2 = 0.5 * dt
     for r in prange(q0.size):
@@ -226,7 +226,7 @@ def _ramp_deriv(th, be, vs, w, wb, sliding, direction, r, k, mj, k_g, codes, par
     return a_s, a_th, a_be, f_req, normal
 
 
-@cached_jit(parallel=True)
+@cached_jit(parallel=True, nogil=True)
 def _run_ramp(n_steps, dt, K, mj, k_g, codes, par, Y, Yd):
     """RampModel.simulate's loop, one row per thread, from rest; K (B, 11) each row's constants
     (ramp_equations.constants: a run's own ramp angle), Y, Yd (B, n + 1)."""

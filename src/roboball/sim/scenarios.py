@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 import os
+import threading
 import time
 
 import numpy as np
@@ -227,6 +228,16 @@ def _max_wall_s(max_wall_s: float | None) -> float | None:
     return value if value > 0 else None
 
 
+# Drake logs some warnings once per process from inside a C++ function-local static (a rigid
+# half-space "not currently supported for deformable contact", when a context is first made),
+# through pydrake's sink into Python's logging, which may hand the GIL to another thread.  Two
+# threads making their first contexts at once then deadlock: one holds the static's guard and
+# waits for the GIL, the other holds the GIL and waits for the guard.  Runs in threads (the
+# diagnosis's side-by-side Drake runs) make their diagrams and contexts under this lock and step
+# in parallel (AdvanceTo releases the GIL).
+DRAKE_SETUP = threading.RLock()
+
+
 def simulate(spec: SimSpec, release: float, duration: float, sample_rate_hz: float = 100.0,
              steer0: float = 0.0, chunk_s: float = 0.5, built: Built | None = None,
              return_states: bool = False, max_wall_s: float | None = None, before_chunk=None,
@@ -246,14 +257,15 @@ def simulate(spec: SimSpec, release: float, duration: float, sample_rate_hz: flo
     start), so runs that differ only in joint friction (a ramp run's posterior draws) settle once.
     """
     budget = _max_wall_s(max_wall_s)
-    if built is None:
-        built = build(spec, sample_period=1.0 / sample_rate_hz)
-    sim = Simulator(built.diagram)
-    ctx = sim.get_mutable_context()
-    set_release(built, ctx, release, steer0, settled)
-    if rates0:
-        set_release_rates(built, ctx, **rates0)
-    sim.Initialize()
+    with DRAKE_SETUP:
+        if built is None:
+            built = build(spec, sample_period=1.0 / sample_rate_hz)
+        sim = Simulator(built.diagram)
+        ctx = sim.get_mutable_context()
+        set_release(built, ctx, release, steer0, settled)
+        if rates0:
+            set_release_rates(built, ctx, **rates0)
+        sim.Initialize()
     pctx = built.plant.GetMyContextFromRoot(ctx)
     t = 0.0
     start = time.monotonic()
