@@ -4,6 +4,7 @@ release with the pendulum free")."""
 from __future__ import annotations
 
 import math
+import threading
 from concurrent.futures import ThreadPoolExecutor
 
 import numba
@@ -69,18 +70,39 @@ def both_settings(one, log) -> dict:
     """{"locked": one("locked", log), "free": one("free", ...)}: given a second thread (Numba's
     count; the workflow gives each job one) the two diagnoses run side by side, the free one in a
     worker thread (its compiled loops and Drake release the GIL), with the same results as one
-    after the other: the two share nothing they write, and the free one's messages are held back
-    and said after the locked one's, in the order a sequential run says them."""
+    after the other: the two share nothing they write.  The messages come in a sequential run's
+    order: the free one's are held while the locked one runs, then said and passed on as they
+    come (the free search is the longer)."""
     if numba.get_num_threads() < 2:
         return {"locked": one("locked", log), "free": one("free", log)}
-    held = []
+    gate = _Gate(log) if log else None
     with ThreadPoolExecutor(max_workers=1) as worker:
-        free = worker.submit(one, "free", held.append if log else None)
+        free = worker.submit(one, "free", gate)
         locked = one("locked", log)     # in this thread, where Ctrl-C lands
-        runs = {"locked": locked, "free": free.result()}
-    for message in held:
-        log(message)
-    return runs
+        if gate:
+            gate.open()
+        return {"locked": locked, "free": free.result()}
+
+
+class _Gate:
+    """A log that holds its messages until opened, then says them in order and passes the rest
+    on as they come."""
+
+    def __init__(self, log):
+        self.log, self.held, self.is_open, self.lock = log, [], False, threading.Lock()
+
+    def __call__(self, message: str) -> None:
+        with self.lock:
+            if self.is_open:
+                self.log(message)
+            else:
+                self.held.append(message)
+
+    def open(self) -> None:
+        with self.lock:
+            for message in self.held:
+                self.log(message)
+            self.held, self.is_open = [], True
 
 
 def decide(cv: dict, verdicts: dict, test: dict, s: Settings) -> tuple:
