@@ -334,7 +334,7 @@ def test_the_report_s_two_drake_models_run_side_by_side_with_the_sequential_resu
     monkeypatch.setattr(report, "simulate_windows", spy)
     out = {}
     for n in (1, 2):
-        monkeypatch.setattr(report.numba, "get_num_threads", lambda n=n: n)
+        monkeypatch.setattr(report, "second_thread", lambda n=n: n > 1)
         d = case()
         out[n] = (report._drake_predictions(d, True), list(d.prep.notes))
         # one thread: both in this one; two: the final model in the other

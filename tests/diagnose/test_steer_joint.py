@@ -336,7 +336,7 @@ def test_both_settings_side_by_side_return_and_say_what_one_after_the_other_does
         return setting.upper()
 
     for n in (1, 2):
-        monkeypatch.setattr(steer.numba, "get_num_threads", lambda n=n: n)
+        monkeypatch.setattr(steer, "second_thread", lambda n=n: n > 1)
         said.clear()
         assert steer.both_settings(one, said.append) == {"locked": "LOCKED", "free": "FREE"}
         assert said == [f"{step}: {s}" for s in ("locked", "free") for step in ("data", "baseline", "round")]
@@ -349,14 +349,45 @@ def test_both_settings_side_by_side_return_and_say_what_one_after_the_other_does
 def test_a_diagnosis_of_unrecorded_steer_setting_is_the_same_in_one_thread_as_in_two(tmp_path, monkeypatch):
     """The two settings' searches and the report's two Drake models side by side (two threads)
     write the same diagnosis, predictions and figures as one after the other."""
-    from roboball.diagnose import report, steer
+    from roboball.diagnose import beside
 
     csv = REPO / "raw_data" / "shell_rock" / "shell_rock_20.7kpa_r1.csv"
     files = ("diagnosis.json", "predictions.csv", "overlay.png", "windows.png", "regimes.png")
     out = {}
     for n in (1, 2):
-        monkeypatch.setattr(steer.numba, "get_num_threads", lambda n=n: n)
-        monkeypatch.setattr(report.numba, "get_num_threads", lambda n=n: n)
+        monkeypatch.setattr(beside.numba, "get_num_threads", lambda n=n: n)
         diagnose(csv, out_dir=tmp_path / str(n), steer_joint="unknown")
         out[n] = {f: (tmp_path / str(n) / f).read_bytes() for f in files}
     assert out[1] == out[2]
+
+
+def test_an_error_in_the_locked_setting_ends_the_diagnosis_without_waiting_for_the_free_one(monkeypatch):
+    """The free setting's search runs beside in a daemon thread: an error (or Ctrl-C) in the
+    locked one is raised at once, not after the free one has finished."""
+    import time
+
+    from roboball.diagnose import steer
+
+    def one(setting, say):
+        if setting == "locked":
+            raise KeyboardInterrupt
+        time.sleep(3.0)
+        return "FREE"
+
+    monkeypatch.setattr(steer, "second_thread", lambda: True)
+    t0 = time.monotonic()
+    with pytest.raises(KeyboardInterrupt):
+        steer.both_settings(one, None)
+    assert time.monotonic() - t0 < 1.0
+
+
+def test_an_error_beside_is_raised_where_its_result_is_asked_for():
+    from roboball.diagnose.beside import Beside
+    from roboball.errors import SimulationError
+
+    def fails():
+        raise SimulationError("Drake failed (a run)")
+
+    with pytest.raises(SimulationError, match="Drake failed"):
+        Beside(fails).result()
+    assert Beside(lambda a, b=0: a + b, 2, b=3).result() == 5

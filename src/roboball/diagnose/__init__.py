@@ -16,7 +16,8 @@ effects, each effect judged against the set without it, and the verdict), equiva
 and the equivalent explanations of the chosen effects), locate (residual by time window and
 regime), drake (the augmented model as a Drake force element and joint rotor inertia), report
 (writes the outputs: contract for diagnosis.json, markdown for report.md, figures for the PNGs);
-steer (a shell release's steer setting: locked, free or unknown).  The command is
+steer (a shell release's steer setting: locked, free or unknown); beside (two independent calls
+at once, given a second thread).  The command is
 roboball.cli.diagnose; the effect library itself is roboball.physics.effects.
 """
 from __future__ import annotations

@@ -12,13 +12,12 @@ from __future__ import annotations
 
 import math
 import time
-from concurrent.futures import ThreadPoolExecutor
 from functools import partial
 
-import numba
 import numpy as np
 
 from roboball.atomic import output_folder, write_csv_atomic, write_json_atomic, write_text_atomic
+from roboball.diagnose.beside import Beside, second_thread
 from roboball.diagnose.contract import diagnosis_json
 from roboball.diagnose.drake import rmse as drake_rmse
 from roboball.diagnose.drake import simulate_windows
@@ -55,17 +54,16 @@ def write(d: Diagnosis, out_dir, drake: bool = True) -> dict:
 def _drake_predictions(d: Diagnosis, drake: bool):
     """The baseline's and the augmented model's predictions ({window: y}) and their RMS in Drake;
     without `drake`, the reduced model's fitted predictions and no RMS.  Given a second thread
-    (Numba's count: the workflow gives each job one) the two models run side by side: Drake
+    (roboball.diagnose.beside) the two models run side by side: Drake
     steps without the GIL, each run has its own diagrams and context, and the notes are merged
     in the sequential order, so the output is the same either way."""
     if drake:
         notes_base, notes_aug = [], []
         run_aug = partial(simulate_windows, d.prep, d.model, d.final.values, d.chosen, notes=notes_aug)
-        if d.chosen and numba.get_num_threads() > 1:
-            with ThreadPoolExecutor(max_workers=1) as pool:
-                aug = pool.submit(run_aug)      # the baseline in this thread, where Ctrl-C lands
-                drake_base = simulate_windows(d.prep, d.model, d.baseline.values, (), notes=notes_base)
-                drake_aug = aug.result()
+        if d.chosen and second_thread():
+            aug = Beside(run_aug)            # the baseline in this thread, where Ctrl-C lands
+            drake_base = simulate_windows(d.prep, d.model, d.baseline.values, (), notes=notes_base)
+            drake_aug = aug.result()
         else:
             drake_base = simulate_windows(d.prep, d.model, d.baseline.values, (), notes=notes_base)
             drake_aug = run_aug() if d.chosen else drake_base

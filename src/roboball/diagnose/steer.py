@@ -5,10 +5,8 @@ from __future__ import annotations
 
 import math
 import threading
-from concurrent.futures import ThreadPoolExecutor
 
-import numba
-
+from roboball.diagnose.beside import Beside, second_thread
 from roboball.diagnose.crossval import paired_heldout
 from roboball.diagnose.data import pool, prepare
 from roboball.diagnose.scored import Settings
@@ -69,19 +67,18 @@ def either_steer_setting(recs, prep, settings, log, steer_friction: dict | None)
 def both_settings(one, log) -> dict:
     """{"locked": one("locked", log), "free": one("free", ...)}: given a second thread (Numba's
     count; the workflow gives each job one) the two diagnoses run side by side, the free one in a
-    worker thread (its compiled loops and Drake release the GIL), with the same results as one
+    daemon thread (roboball.diagnose.beside), with the same results as one
     after the other: the two share nothing they write.  The messages come in a sequential run's
     order: the free one's are held while the locked one runs, then said and passed on as they
     come (the free search is the longer)."""
-    if numba.get_num_threads() < 2:
+    if not second_thread():
         return {"locked": one("locked", log), "free": one("free", log)}
     gate = _Gate(log) if log else None
-    with ThreadPoolExecutor(max_workers=1) as worker:
-        free = worker.submit(one, "free", gate)
-        locked = one("locked", log)     # in this thread, where Ctrl-C lands
-        if gate:
-            gate.open()
-        return {"locked": locked, "free": free.result()}
+    free = Beside(one, "free", gate)
+    locked = one("locked", log)         # in this thread, where Ctrl-C lands
+    if gate:
+        gate.open()
+    return {"locked": locked, "free": free.result()}
 
 
 class _Gate:
