@@ -58,16 +58,12 @@ def _drake_predictions(d: Diagnosis, drake: bool):
     steps without the GIL, each run has its own diagrams and context, and the notes are merged
     in the sequential order, so the output is the same either way."""
     if drake:
-        notes_base, notes_aug = [], []
+        notes_aug = []                   # the run beside notes apart from the recording's own
         run_aug = partial(simulate_windows, d.prep, d.model, d.final.values, d.chosen, notes=notes_aug)
-        if d.chosen and second_thread():
-            aug = Beside(run_aug)            # the baseline in this thread, where Ctrl-C lands
-            drake_base = simulate_windows(d.prep, d.model, d.baseline.values, (), notes=notes_base)
-            drake_aug = aug.result()
-        else:
-            drake_base = simulate_windows(d.prep, d.model, d.baseline.values, (), notes=notes_base)
-            drake_aug = run_aug() if d.chosen else drake_base
-        for note in notes_base + notes_aug:
+        aug = Beside(run_aug) if d.chosen and second_thread() else None
+        drake_base = simulate_windows(d.prep, d.model, d.baseline.values, ())   # here, where Ctrl-C lands
+        drake_aug = aug.result() if aug else (run_aug() if d.chosen else drake_base)
+        for note in notes_aug:
             if note not in d.prep.notes:
                 d.prep.notes.append(note)
         stats = (drake_rmse(d.prep, drake_base), drake_rmse(d.prep, drake_aug))

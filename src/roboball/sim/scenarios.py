@@ -233,8 +233,8 @@ def _max_wall_s(max_wall_s: float | None) -> float | None:
 # through pydrake's sink into Python's logging, which may hand the GIL to another thread.  Two
 # threads making their first contexts at once then deadlock: one holds the static's guard and
 # waits for the GIL, the other holds the GIL and waits for the guard.  Runs in threads (the
-# diagnosis's side-by-side Drake runs) make their diagrams and contexts under this lock and step
-# in parallel (AdvanceTo releases the GIL).
+# diagnosis's side-by-side Drake runs) make their contexts (and any diagram built here) under
+# this lock and step in parallel (AdvanceTo releases the GIL).
 DRAKE_SETUP = threading.RLock()
 
 
