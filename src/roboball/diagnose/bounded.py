@@ -26,6 +26,8 @@ import math
 
 import numpy as np
 
+from roboball.reduced.jitcache import cached_jit
+
 STRETCH_S = 0.5        # s simulated between two prunings
 LEADERS = 2            # starts per grid simulated to the end for the bound, after each stretch of:
 LEADER_STRETCHES = (1, 2, 4, 8)     # (counted from 1; none after the eighth: 4 s into the window)
@@ -164,19 +166,8 @@ class _Run:
         # the whole matrix gives: a stretch is a sixteenth of an 8 s window)
         a = int(np.searchsorted(self.col_max, lo, side="left"))
         b = max(a, int(np.searchsorted(self.col_min, hi, side="left")))
-        cell = self.cell[:, a:b]
-        r, c = np.nonzero((cell >= lo) & (cell < hi) & self.mask[:, a:b])
-        c += a
-        i = self.cell[r, c] - lo
-        s = self.s[r, c]
-        dt = self.dt
-        y0, y1, d0, d1 = Y[i, r], Y[i + 1, r], Yd[i, r] * dt, Yd[i + 1, r] * dt
-        s2, s3 = s * s, s * s * s
-        y = (2 * s3 - 3 * s2 + 1) * y0 + (s3 - 2 * s2 + s) * d0 + (-2 * s3 + 3 * s2) * y1 + (s3 - s2) * d1
-        y[~np.isfinite(y)] = self.diverged
-        with np.errstate(over="ignore"):
-            sq = (y - self.y[c]) ** 2
-        np.add.at(partial, self.owner[r], sq)
+        _add_costs(Y, Yd, self.dt, lo, hi, a, b, self.cell, self.s, self.mask, self.y, self.owner,
+                   float(self.diverged), partial)
         self.done = hi
 
 
@@ -188,3 +179,31 @@ def _item_masks(items, spans) -> list:
         for i in range(len(cands) * len(used)):
             out[start + i] = m[i % len(used)]
     return out
+
+
+@cached_jit()
+def _add_costs(Y, Yd, dt, lo, hi, a, b, cell, s, mask, y_rec, owner, diverged, partial):
+    """Each row's samples whose cells lie in steps lo .. hi - 1 (in columns a .. b - 1 only: a
+    row's cells grow with the sample's time), interpolated as Engine._simulate does (cubic
+    Hermite on the steps' values Y and rates Yd, (n + 1, rows)), their squared errors added to
+    the row's candidate in `partial`.  Compiled, in the order and with the operations of the
+    NumPy expressions it replaced (rows, then columns; the same bits): at a grid's thousands
+    of rows those took a second of the free pendulum's diagnosis in one thread."""
+    for r in range(cell.shape[0]):
+        for c in range(a, b):
+            k = cell[r, c]
+            if k < lo or k >= hi or not mask[r, c]:
+                continue
+            i = k - lo
+            x = s[r, c]
+            y0 = Y[i, r]
+            y1 = Y[i + 1, r]
+            d0 = Yd[i, r] * dt
+            d1 = Yd[i + 1, r] * dt
+            s2 = x * x
+            s3 = x * x * x
+            y = (2 * s3 - 3 * s2 + 1) * y0 + (s3 - 2 * s2 + x) * d0 + (-2 * s3 + 3 * s2) * y1 + (s3 - s2) * d1
+            if not np.isfinite(y):
+                y = diverged
+            e = y - y_rec[c]
+            partial[owner[r]] += e * e
