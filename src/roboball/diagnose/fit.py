@@ -29,7 +29,7 @@ from roboball.diagnose.data import Prepared
 from roboball.diagnose.hidden import chosen_starts
 from roboball.diagnose.sensor import LAG_BOUNDS, LAG_KEY, LAG_TYPICAL, lag_grid, lag_of
 from roboball.reduced.base import DT, ReducedModel
-from roboball.reduced.integrate import hermite
+from roboball.reduced.compiled import sample_outputs
 
 Q0_BOUND = 0.1        # rad: release value may move this far from the hold level
 FD_REL = 0.01         # forward-difference step, in units of the parameter's typical size
@@ -214,13 +214,7 @@ class Engine:
             cols = np.nonzero(wins == w)[0]
             win = self.windows[int(w)]
             tau = (win.t - win.t0)[None, :] - ts[cols][:, None]
-            y = hermite(Y, Yd, dt, tau, cols)
-            x = np.clip(tau / dt, 0.0, n_steps - 1e-9)
-            i = np.floor(x).astype(int)
-            s = x - i
-            c = cols[:, None]
-            yd = (1 - s) * Yd[i, c] + s * Yd[i + 1, c]
-            yd[tau < 0] = 0.0
+            y, yd = sample_outputs(Y, Yd, dt, tau, cols)
             # seen as the recording's window is (a ramp's averaged trend; identity elsewhere)
             y, yd = win.observe(y), win.observe(yd)
             for j, b in enumerate(cols):

@@ -379,3 +379,30 @@ def steer_stepper(model, q0, th0, w0, codes, par, dt: float) -> Stepper:
 def _outputs(B: int, n_steps: int):
     """Row-major (B, n + 1) arrays for the kernels, returned to the caller as (n + 1, B) views."""
     return np.empty((B, n_steps + 1)), np.empty((B, n_steps + 1))
+
+
+@cached_jit()
+def sample_outputs(Y, Yd, dt, tau, cols):
+    """The batch's outputs Y and rates Yd ((n + 1, B), the steps) at times `tau` ((n_b, n_s), s
+    from the start of batch column cols[j]): Y by roboball.reduced.integrate.hermite, the rate
+    linearly between steps and 0 before the start; (y, yd), (n_b, n_s) each.  The NumPy
+    expressions the diagnosis's Engine used, compiled with the same operations in the same order
+    (the same bits): they ran in one thread beside the parallel steps."""
+    n = Y.shape[0] - 1
+    y = np.empty(tau.shape)
+    yd = np.empty(tau.shape)
+    for j in range(tau.shape[0]):
+        c = cols[j]
+        for k in range(tau.shape[1]):
+            x = min(max(tau[j, k] / dt, 0.0), n - 1e-9)
+            i = int(math.floor(x))
+            s = x - i
+            y0 = Y[i, c]
+            y1 = Y[i + 1, c]
+            d0 = Yd[i, c] * dt
+            d1 = Yd[i + 1, c] * dt
+            s2 = s * s
+            s3 = s * s * s
+            y[j, k] = (2 * s3 - 3 * s2 + 1) * y0 + (s3 - 2 * s2 + s) * d0 + (-2 * s3 + 3 * s2) * y1 + (s3 - s2) * d1
+            yd[j, k] = 0.0 if tau[j, k] < 0 else (1 - s) * Yd[i, c] + s * Yd[i + 1, c]
+    return y, yd
