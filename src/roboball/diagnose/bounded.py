@@ -26,6 +26,7 @@ import math
 
 import numpy as np
 
+from roboball.reduced.compiled import hermite_at
 from roboball.reduced.jitcache import cached_jit
 
 STRETCH_S = 0.5        # s simulated between two prunings
@@ -132,7 +133,7 @@ class _Run:
         P, q0, ts = engine.batch_arrays([items[r] for r in rows])
         self.dt = engine.dt
         n_total = int(math.ceil((win.duration + engine.max_shift + 0.05) / self.dt)) + 1
-        # as Engine._simulate and roboball.reduced.integrate.hermite sample the run
+        # as Engine._simulate samples the run (roboball.reduced.compiled.sample_outputs)
         tau = (win.t - win.t0)[None, :] - ts[:, None]
         x = np.clip(tau / self.dt, 0.0, n_total - 1e-9)
         self.cell = np.floor(x).astype(int)
@@ -184,25 +185,17 @@ def _item_masks(items, spans) -> list:
 @cached_jit()
 def _add_costs(Y, Yd, dt, lo, hi, a, b, cell, s, mask, y_rec, owner, diverged, partial):
     """Each row's samples whose cells lie in steps lo .. hi - 1 (in columns a .. b - 1 only: a
-    row's cells grow with the sample's time), interpolated as Engine._simulate does (cubic
-    Hermite on the steps' values Y and rates Yd, (n + 1, rows)), their squared errors added to
-    the row's candidate in `partial`.  Compiled, in the order and with the operations of the
-    NumPy expressions it replaced (rows, then columns; the same bits): at a grid's thousands
-    of rows those took a second of the free pendulum's diagnosis in one thread."""
+    row's cells grow with the sample's time), interpolated as Engine._simulate does
+    (roboball.reduced.compiled.hermite_at on the steps' values Y and rates Yd, (n + 1, rows)),
+    their squared errors added to the row's candidate in `partial`, rows then columns.  Compiled:
+    as NumPy expressions, at a grid's thousands of rows, they took a second of the free
+    pendulum's diagnosis in one thread."""
     for r in range(cell.shape[0]):
         for c in range(a, b):
             k = cell[r, c]
             if k < lo or k >= hi or not mask[r, c]:
                 continue
-            i = k - lo
-            x = s[r, c]
-            y0 = Y[i, r]
-            y1 = Y[i + 1, r]
-            d0 = Yd[i, r] * dt
-            d1 = Yd[i + 1, r] * dt
-            s2 = x * x
-            s3 = x * x * x
-            y = (2 * s3 - 3 * s2 + 1) * y0 + (s3 - 2 * s2 + x) * d0 + (-2 * s3 + 3 * s2) * y1 + (s3 - s2) * d1
+            y = hermite_at(Y, Yd, k - lo, r, s[r, c], dt)
             if not np.isfinite(y):
                 y = diverged
             e = y - y_rec[c]

@@ -12,7 +12,8 @@ to the batch.
 Models (coordinates measured from the baseline model's rest; robot facts from configs/robot.yaml):
 `roboball.reduced.stand.StandModel`, `roboball.reduced.shell.ShellModel`,
 `roboball.reduced.ramp.RampModel`; `roboball.reduced.models.model_for` picks one per kind.
-Time stepping and output sampling: `roboball.reduced.integrate` (`midpoint`, `hermite`).
+Time stepping: `roboball.reduced.integrate` (`midpoint`); output sampling:
+`roboball.reduced.compiled.sample_outputs`.
 """
 from __future__ import annotations
 

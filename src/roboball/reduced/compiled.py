@@ -381,13 +381,26 @@ def _outputs(B: int, n_steps: int):
     return np.empty((B, n_steps + 1)), np.empty((B, n_steps + 1))
 
 
+@cached_jit(inline="always")
+def hermite_at(Y, Yd, i, c, s, dt):
+    """Batch column c's output at the fraction s of step i: the cubic Hermite interpolant of its
+    steps' values Y and rates Yd ((n + 1, B)).  The one sample of the diagnosis's outputs (its
+    fits' here, its bounded grids' in roboball.diagnose.bounded), inlined where it is used."""
+    y0 = Y[i, c]
+    y1 = Y[i + 1, c]
+    d0 = Yd[i, c] * dt
+    d1 = Yd[i + 1, c] * dt
+    s2 = s * s
+    s3 = s * s * s
+    return (2 * s3 - 3 * s2 + 1) * y0 + (s3 - 2 * s2 + s) * d0 + (-2 * s3 + 3 * s2) * y1 + (s3 - s2) * d1
+
+
 @cached_jit()
 def sample_outputs(Y, Yd, dt, tau, cols):
     """The batch's outputs Y and rates Yd ((n + 1, B), the steps) at times `tau` ((n_b, n_s), s
-    from the start of batch column cols[j]): Y by roboball.reduced.integrate.hermite, the rate
-    linearly between steps and 0 before the start; (y, yd), (n_b, n_s) each.  The NumPy
-    expressions the diagnosis's Engine used, compiled with the same operations in the same order
-    (the same bits): they ran in one thread beside the parallel steps."""
+    from the start of batch column cols[j]; a time before 0 takes the initial value): Y by
+    `hermite_at`, the rate linearly between steps and 0 before the start; (y, yd), (n_b, n_s)
+    each.  Compiled: as NumPy gathers they ran in one thread beside the parallel steps."""
     n = Y.shape[0] - 1
     y = np.empty(tau.shape)
     yd = np.empty(tau.shape)
@@ -397,12 +410,6 @@ def sample_outputs(Y, Yd, dt, tau, cols):
             x = min(max(tau[j, k] / dt, 0.0), n - 1e-9)
             i = int(math.floor(x))
             s = x - i
-            y0 = Y[i, c]
-            y1 = Y[i + 1, c]
-            d0 = Yd[i, c] * dt
-            d1 = Yd[i + 1, c] * dt
-            s2 = s * s
-            s3 = s * s * s
-            y[j, k] = (2 * s3 - 3 * s2 + 1) * y0 + (s3 - 2 * s2 + s) * d0 + (-2 * s3 + 3 * s2) * y1 + (s3 - s2) * d1
+            y[j, k] = hermite_at(Y, Yd, i, c, s, dt)
             yd[j, k] = 0.0 if tau[j, k] < 0 else (1 - s) * Yd[i, c] + s * Yd[i + 1, c]
     return y, yd

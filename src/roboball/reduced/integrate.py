@@ -10,8 +10,9 @@ change every number downstream, so both stay:
   shared by all rows.
 * :func:`midpoint`, explicit midpoint (RK2), for the diagnosis models (:mod:`roboball.reduced.stand`,
   :mod:`roboball.reduced.shell`; the ramp's two-body model runs its own midpoint loop with a
-  contact mode, :mod:`roboball.reduced.ramp`).  Outputs are sampled by :func:`hermite` at times
-  given per batch column.
+  contact mode, :mod:`roboball.reduced.ramp`).  The diagnosis samples their outputs by cubic
+  Hermite interpolation at times given per batch column
+  (:func:`roboball.reduced.compiled.sample_outputs`).
 
 RK4 with an implicit step for stiff stiction
 --------------------------------------------
@@ -71,7 +72,7 @@ from roboball.errors import RoboballError
 from roboball.physics import friction
 
 __all__ = ["NEWTON_MAX_IT", "PlanarEquation", "Trajectory", "friction_function", "stiff_band",
-           "rk4_stiction", "implicit_step", "sample", "sample_rows", "midpoint", "hermite"]
+           "rk4_stiction", "implicit_step", "sample", "sample_rows", "midpoint"]
 
 NEWTON_MAX_IT = 40          # iteration cap of the implicit step (the compiled loop freezes the same)
 EDGE_EVENTS_MAX = 4         # band edges located within one step (a row that chatters on an edge
@@ -426,17 +427,3 @@ def midpoint(accel, q0, v0, n_steps, dt):
         Q[k] = q
         V[k] = v
     return Q, V
-
-
-def hermite(Y, Yd, dt: float, tau, cols):
-    """Cubic Hermite interpolation of stored outputs at times `tau` (array (n_b, n_s), s from
-    the start of each batch column `cols` (n_b,)); values before 0 take the initial value."""
-    n = Y.shape[0] - 1
-    x = np.clip(tau / dt, 0.0, n - 1e-9)
-    i = np.floor(x).astype(int)
-    s = x - i
-    c = cols[:, None]
-    y0, y1 = Y[i, c], Y[i + 1, c]
-    d0, d1 = Yd[i, c] * dt, Yd[i + 1, c] * dt
-    s2, s3 = s * s, s * s * s
-    return ((2 * s3 - 3 * s2 + 1) * y0 + (s3 - 2 * s2 + s) * d0 + (-2 * s3 + 3 * s2) * y1 + (s3 - s2) * d1)
